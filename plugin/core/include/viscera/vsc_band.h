@@ -1,0 +1,29 @@
+// Symmetric positive definite band matrices of half-bandwidth 3 (band 7),
+// the shape of a cubic spline's mass matrix (France et al. 2002, 3.1.4).
+//
+// Storage (n x 4, row-major, caller-owned): row i holds the lower band
+//   band[4 i + d] = A(i, i - 3 + d),  d = 0..3,  so band[4 i + 3] is the diagonal.
+// Entries with column i - 3 + d < 0 are ignored (keep them zero).
+// vsc_band_factor overwrites the band with its Cholesky factor L (A = L L^T) in
+// the same layout, except that the diagonal holds 1 / L(i, i) so that solves
+// multiply instead of divide. Factor O(n), solve O(n).
+#ifndef VISCERA_VSC_BAND_H
+#define VISCERA_VSC_BAND_H
+
+#include "viscera/vsc_base.h"
+
+/// Number of stored entries per row.
+#define VSC_BAND_WIDTH 4
+
+/// In-place Cholesky factorisation of an n x n band matrix (layout above).
+/// Returns VSC_ERROR_NOT_POSITIVE_DEFINITE if a pivot is not positive.
+vsc_status vsc_band_factor(double* band, int n);
+
+/// Solve A x = b in place for three right-hand sides stored interleaved
+/// (xyz[3 i + c] is row i of column c), given the factor from vsc_band_factor.
+void vsc_band_solve3(const double* factor, int n, double* xyz);
+
+/// y = A x for three interleaved columns, with A in unfactored band layout.
+void vsc_band_multiply3(const double* band, int n, const double* x, double* y);
+
+#endif  // VISCERA_VSC_BAND_H

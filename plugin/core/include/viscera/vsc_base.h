@@ -1,0 +1,22 @@
+// viscera core: common definitions.
+//
+// The core is plain C11 with no dependency on MuJoCo. It never prints, never
+// aborts and never allocates behind the caller's back: every allocation is made
+// by a `vsc_*_create` function and released by its `vsc_*_destroy` twin.
+// All quantities are SI: metres, kilograms, seconds, newtons.
+#ifndef VISCERA_VSC_BASE_H
+#define VISCERA_VSC_BASE_H
+
+/// Status codes returned by core functions (0 is success).
+typedef enum vsc_status {
+  VSC_OK = 0,
+  VSC_ERROR_INVALID_ARGUMENT = -1,  ///< a parameter is out of its documented range
+  VSC_ERROR_OUT_OF_MEMORY = -2,     ///< an allocation failed
+  VSC_ERROR_NOT_POSITIVE_DEFINITE = -3,  ///< a matrix factorisation met a non-positive pivot
+  VSC_ERROR_DIVERGED = -4,          ///< the state became non-finite; it was restored
+} vsc_status;
+
+/// Human-readable name of a status code (static storage, never NULL).
+const char* vsc_status_string(vsc_status status);
+
+#endif  // VISCERA_VSC_BASE_H

@@ -1,0 +1,124 @@
+// The intestine's axis: a Lagrangian Catmull-Rom rod (France et al. 2002, 3.1).
+//
+// Degrees of freedom: n control points q (m) and their velocities v (m/s),
+// interleaved xyz, 3 per point. Equations of motion (Euler-Lagrange; the
+// paper's eq. 3 prints + signs):
+//     M a = Q_gravity + Q_contact + Q_external - grad E - damping * M v
+// with M_ij = m * integral_0^1 b_i(s) b_j(s) ds the consistent mass matrix
+// (band 7, identical for x, y, z), factorised once at creation.
+//
+// Elastic energy E, on S sample points per segment (N = (n-1) S + 1 samples
+// p_a = P(a / (N-1)), rest spacing l0 = length / (N-1), straight rest shape):
+//   stretch springs  p_a -- p_{a+1}: 1/2 k_s (|p_{a+1} - p_a| - l0)^2
+//   bend springs     p_a -- p_{a+2}: 1/2 k_b (|p_{a+2} - p_a| - 2 l0)^2  (paper Fig. 1)
+//   global stretch   1/2 K_g (l - length)^2, l = sum |p_{a+1} - p_a|   (paper 3.1.3)
+// Per-spring constants are scaled from the whole-intestine stiffnesses so the
+// response does not depend on the resolution: k_s = stretch_stiffness (N-1),
+// k_b = bend_stiffness (N-1). A straight intestine pulled by its ends then has
+// the axial stiffness stretch_stiffness + 4 bend_stiffness + global_stretch_stiffness.
+// Forces are exact gradients, O(n), transposed to control points by virtual
+// work: a force F at abscissa s adds b_k(s) F to control point k.
+#ifndef VISCERA_VSC_ROD_H
+#define VISCERA_VSC_ROD_H
+
+#include "viscera/vsc_base.h"
+#include "viscera/vsc_geom.h"
+#include "viscera/vsc_spline.h"
+
+/// Creation parameters. Initialise with vsc_default_rod_def().
+typedef struct vsc_rod_def {
+  int control_count;                 ///< control points n (>= 4)
+  double length;                     ///< rest length of the axis (m, > 0)
+  double mass;                       ///< total mass (kg, > 0)
+  int samples_per_segment;           ///< spring sample points per segment S (>= 1)
+  double stretch_stiffness;          ///< whole-intestine stretch spring stiffness (N/m, >= 0)
+  double bend_stiffness;             ///< whole-intestine bend spring stiffness (N/m, >= 0)
+  double global_stretch_stiffness;   ///< global length stiffness K_g (N/m, >= 0)
+  double damping;                    ///< mass-proportional viscous damping (1/s, >= 0)
+  double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
+  int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
+  double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
+  double contact_damping;            ///< penalty damping against geoms (N s/m, >= 0)
+  const int* pinned;                 ///< indices of control points fixed in space (copied)
+  int pinned_count;                  ///< number of entries of `pinned`
+} vsc_rod_def;
+
+/// Defaults: a 4 m, 250-point, 12.5 mm-radius intestine of density 1000 kg/m^3.
+vsc_rod_def vsc_default_rod_def(void);
+
+/// Collision spheres needed for neighbours of radius `radius` (m) to touch
+/// along `length` (m): ceil(length / (2 radius)) + 1.
+int vsc_default_collision_sphere_count(double length, double radius);
+
+/// A rod: the definition plus caches derived from it. Owns all its arrays.
+/// Evaluation functions write into the scratch arrays, so one rod must not be
+/// evaluated from two threads at once (give each thread its own rod).
+typedef struct vsc_rod {
+  vsc_rod_def def;           ///< copy of the definition (def.pinned points to `pinned`)
+  int n;                     ///< control points
+  int sample_count;          ///< spring sample points N
+  double rest_spacing;       ///< l0 (m)
+  double stretch_spring;     ///< k_s per spring (N/m)
+  double bend_spring;        ///< k_b per spring (N/m)
+  vsc_basis* sample_basis;   ///< basis of each sample (N)
+  vsc_basis* sphere_basis;   ///< basis of each collision sphere (collision_sphere_count)
+  double* mass_band;         ///< M, band layout of vsc_band.h (n x 4) (kg)
+  double* mass_factor;       ///< Cholesky factor of M with pinned rows replaced by identity (n x 4)
+  double* mass_row_sum;      ///< sum_j M_kj, the gravity weights (n) (kg)
+  int* pinned;               ///< pinned indices (pinned_count)
+  unsigned char* is_pinned;  ///< 1 where control point k is pinned (n)
+  // scratch, overwritten by every evaluation
+  double* sample_xyz;        ///< sample positions (3N) (m)
+  double* sample_force;      ///< forces on samples (3N) (N)
+  double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
+  double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
+  double* stage;             ///< integrator stages (8 x 3n)
+} vsc_rod;
+
+/// Validate `def` and build a rod. On success *out owns a new rod (release
+/// with vsc_rod_destroy); on failure *out is NULL.
+vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out);
+
+/// Release a rod created by vsc_rod_create (NULL is allowed).
+void vsc_rod_destroy(vsc_rod* rod);
+
+/// Rigid surroundings of one evaluation (host-owned).
+typedef struct vsc_world {
+  double gravity[3];        ///< gravitational acceleration (m/s^2)
+  const vsc_geom* geoms;    ///< rigid geoms the rod collides with
+  int geom_count;
+} vsc_world;
+
+/// Generalised forces on control points, Q = Q_gravity + Q_contact - grad E
+/// (N, 3n interleaved, overwritten). Damping is not included (see
+/// vsc_rod_acceleration). If geom_wrench is not NULL, the reaction of the rod
+/// on each geom is added to it: 6 per geom, force (N) then torque about the
+/// geom's position (N m), world frame.
+void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                    double* generalized_force, double* geom_wrench);
+
+/// Accelerations a (m/s^2, 3n, overwritten) from positions q and velocities v:
+/// a = M^{-1} Q - damping v, and a = 0 at pinned points. O(n).
+void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                          double* acceleration);
+
+/// Elastic energy E (J): springs and global stretch.
+double vsc_rod_elastic_energy(vsc_rod* rod, const double* q);
+
+/// Gravitational potential energy (J), zero at the origin.
+double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q);
+
+/// Kinetic energy 1/2 v^T M v (J).
+double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
+
+/// Length of the axis (m), as the sum of the sample spacings.
+double vsc_rod_length(vsc_rod* rod, const double* q);
+
+/// Sample positions into rod->sample_xyz.
+void vsc_rod_update_samples(vsc_rod* rod, const double* q);
+
+/// Collision sphere centres and velocities into rod->sphere_xyz / sphere_velocity
+/// (v may be NULL: velocities are then left untouched).
+void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
+
+#endif  // VISCERA_VSC_ROD_H

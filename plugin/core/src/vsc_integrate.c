@@ -1,0 +1,69 @@
+// RK4 on the first-order system (q, v)' = (v, a(q, v)).
+#include "viscera/vsc_integrate.h"
+
+#include <math.h>
+#include <string.h>
+
+static int state_is_sane(const double* q, const double* v, int size) {
+  double limit = VSC_DIVERGED_SPEED;
+  for (int i = 0; i < size; ++i)
+    if (!isfinite(q[i]) || !(fabs(v[i]) < limit)) return 0;
+  return 1;
+}
+
+static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, double* v, double h) {
+  int size = 3 * rod->n;
+  double* q0 = rod->stage;
+  double* v0 = q0 + size;
+  double* qs = v0 + size;     // stage position
+  double* vs = qs + size;     // stage velocity
+  double* a = vs + size;      // stage acceleration
+  double* dq = a + size;      // weighted sum of position slopes
+  double* dv = dq + size;     // weighted sum of velocity slopes
+  memcpy(q0, q, sizeof(double) * size);
+  memcpy(v0, v, sizeof(double) * size);
+  // stage 1 at (q0, v0)
+  vsc_rod_acceleration(rod, world, q0, v0, a);
+  for (int i = 0; i < size; ++i) {
+    dq[i] = v0[i];
+    dv[i] = a[i];
+    qs[i] = q0[i] + 0.5 * h * v0[i];
+    vs[i] = v0[i] + 0.5 * h * a[i];
+  }
+  // stages 2 and 3 at half steps
+  static const double next_fraction[2] = {0.5, 1.0};
+  for (int stage = 0; stage < 2; ++stage) {
+    vsc_rod_acceleration(rod, world, qs, vs, a);
+    double f = next_fraction[stage] * h;
+    for (int i = 0; i < size; ++i) {
+      double vi = vs[i];
+      dq[i] += 2.0 * vi;
+      dv[i] += 2.0 * a[i];
+      qs[i] = q0[i] + f * vi;
+      vs[i] = v0[i] + f * a[i];
+    }
+  }
+  // stage 4 at the full step
+  vsc_rod_acceleration(rod, world, qs, vs, a);
+  double sixth = h / 6.0;
+  for (int i = 0; i < size; ++i) {
+    q[i] = q0[i] + sixth * (dq[i] + vs[i]);
+    v[i] = v0[i] + sixth * (dv[i] + a[i]);
+  }
+  if (state_is_sane(q, v, size)) return VSC_OK;
+  memcpy(q, q0, sizeof(double) * size);
+  memset(v, 0, sizeof(double) * size);
+  if (!state_is_sane(q, v, size)) memset(q, 0, sizeof(double) * size);
+  return VSC_ERROR_DIVERGED;
+}
+
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double dt, int substeps) {
+  if (substeps < 1 || !(dt > 0.0)) return VSC_ERROR_INVALID_ARGUMENT;
+  double h = dt / (double)substeps;
+  vsc_status status = VSC_OK;
+  for (int s = 0; s < substeps; ++s) {
+    vsc_status r = rk4_substep(rod, world, q, v, h);
+    if (r != VSC_OK) status = r;
+  }
+  return status;
+}

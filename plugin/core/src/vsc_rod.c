@@ -1,0 +1,303 @@
+// Rod creation (mass matrix, basis tables), elastic forces and energies.
+#include "viscera/vsc_rod.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "viscera/vsc_band.h"
+#include "viscera/vsc_contact.h"
+
+#define VSC_PI 3.14159265358979323846
+
+vsc_rod_def vsc_default_rod_def(void) {
+  vsc_rod_def def;
+  memset(&def, 0, sizeof(def));
+  def.control_count = 250;
+  def.length = 4.0;
+  def.radius = 0.0125;
+  def.mass = 1000.0 * VSC_PI * def.radius * def.radius * def.length;
+  def.samples_per_segment = 2;
+  def.stretch_stiffness = 10.0;
+  def.bend_stiffness = 1.0;
+  def.global_stretch_stiffness = 200.0;
+  def.damping = 1.0;
+  def.collision_sphere_count = vsc_default_collision_sphere_count(def.length, def.radius);
+  def.contact_stiffness = 2000.0;
+  def.contact_damping = 2.0;
+  return def;
+}
+
+int vsc_default_collision_sphere_count(double length, double radius) {
+  return (int)ceil(length / (2.0 * radius) - 1e-9) + 1;
+}
+
+static int finite_nonneg(double x) { return isfinite(x) && x >= 0.0; }
+static int finite_pos(double x) { return isfinite(x) && x > 0.0; }
+
+static vsc_status validate(const vsc_rod_def* d) {
+  if (d->control_count < 4 || d->samples_per_segment < 1 || d->collision_sphere_count < 2)
+    return VSC_ERROR_INVALID_ARGUMENT;
+  if (!finite_pos(d->length) || !finite_pos(d->mass) || !finite_pos(d->radius) ||
+      !finite_pos(d->contact_stiffness))
+    return VSC_ERROR_INVALID_ARGUMENT;
+  if (!finite_nonneg(d->stretch_stiffness) || !finite_nonneg(d->bend_stiffness) ||
+      !finite_nonneg(d->global_stretch_stiffness) || !finite_nonneg(d->damping) ||
+      !finite_nonneg(d->contact_damping))
+    return VSC_ERROR_INVALID_ARGUMENT;
+  if (d->pinned_count < 0 || (d->pinned_count > 0 && !d->pinned)) return VSC_ERROR_INVALID_ARGUMENT;
+  for (int i = 0; i < d->pinned_count; ++i)
+    if (d->pinned[i] < 0 || d->pinned[i] >= d->control_count) return VSC_ERROR_INVALID_ARGUMENT;
+  return VSC_OK;
+}
+
+// M_ij = m integral b_i b_j ds: per segment the integrand is a degree-6
+// polynomial in u, integrated exactly by 4-point Gauss-Legendre (exact to degree 7).
+static void assemble_mass(vsc_rod* rod) {
+  static const double node[4] = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281,
+                                 0.9305681557970263};
+  static const double weight[4] = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731,
+                                   0.1739274225687269};
+  int n = rod->n;
+  double segment_mass = rod->def.mass / (double)(n - 1);  // ds = du / (n-1)
+  memset(rod->mass_band, 0, sizeof(double) * 4 * n);
+  for (int j = 0; j < n - 1; ++j) {
+    for (int g = 0; g < 4; ++g) {
+      vsc_basis b = vsc_spline_basis(n, ((double)j + node[g]) / (double)(n - 1));
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c <= r; ++c) {  // lower band: row first+r, column first+c
+          int row = b.first + r, col = b.first + c;
+          rod->mass_band[4 * row + 3 + col - row] += segment_mass * weight[g] * b.weight[r] * b.weight[c];
+        }
+      }
+    }
+  }
+  for (int k = 0; k < n; ++k) rod->mass_row_sum[k] = 0.0;
+  for (int i = 0; i < n; ++i) {
+    for (int d = 0; d < 4; ++d) {
+      int j = i - 3 + d;
+      if (j < 0) continue;
+      double a = rod->mass_band[4 * i + d];
+      rod->mass_row_sum[i] += a;
+      if (j != i) rod->mass_row_sum[j] += a;
+    }
+  }
+}
+
+// The pinned points' accelerations are zero: solving the principal submatrix of
+// the free points equals solving M with pinned rows and columns replaced by identity.
+static vsc_status factor_mass(vsc_rod* rod) {
+  int n = rod->n;
+  memcpy(rod->mass_factor, rod->mass_band, sizeof(double) * 4 * n);
+  for (int k = 0; k < n; ++k) {
+    if (!rod->is_pinned[k]) continue;
+    for (int d = 0; d < 3; ++d) rod->mass_factor[4 * k + d] = 0.0;  // row k, left of diagonal
+    rod->mass_factor[4 * k + 3] = 1.0;
+    for (int r = k + 1; r <= k + 3 && r < n; ++r) rod->mass_factor[4 * r + 3 + k - r] = 0.0;  // column k
+  }
+  return vsc_band_factor(rod->mass_factor, n);
+}
+
+vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
+  *out = NULL;
+  vsc_status status = validate(def);
+  if (status != VSC_OK) return status;
+  vsc_rod* rod = (vsc_rod*)calloc(1, sizeof(vsc_rod));
+  if (!rod) return VSC_ERROR_OUT_OF_MEMORY;
+  int n = def->control_count, spheres = def->collision_sphere_count;
+  rod->def = *def;
+  rod->n = n;
+  rod->sample_count = (n - 1) * def->samples_per_segment + 1;
+  int N = rod->sample_count;
+  rod->rest_spacing = def->length / (double)(N - 1);
+  rod->stretch_spring = def->stretch_stiffness * (double)(N - 1);
+  rod->bend_spring = def->bend_stiffness * (double)(N - 1);
+  rod->sample_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * N);
+  rod->sphere_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * spheres);
+  rod->mass_band = (double*)malloc(sizeof(double) * 4 * n);
+  rod->mass_factor = (double*)malloc(sizeof(double) * 4 * n);
+  rod->mass_row_sum = (double*)malloc(sizeof(double) * n);
+  rod->pinned = (int*)malloc(sizeof(int) * (def->pinned_count > 0 ? def->pinned_count : 1));
+  rod->is_pinned = (unsigned char*)calloc((size_t)n, 1);
+  rod->sample_xyz = (double*)malloc(sizeof(double) * 3 * N);
+  rod->sample_force = (double*)malloc(sizeof(double) * 3 * N);
+  rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
+  rod->sphere_velocity = (double*)calloc((size_t)(3 * spheres), sizeof(double));
+  rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
+  if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
+      !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->sample_xyz ||
+      !rod->sample_force || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage) {
+    vsc_rod_destroy(rod);
+    return VSC_ERROR_OUT_OF_MEMORY;
+  }
+  for (int i = 0; i < def->pinned_count; ++i) {
+    rod->pinned[i] = def->pinned[i];
+    rod->is_pinned[def->pinned[i]] = 1;
+  }
+  rod->def.pinned = rod->pinned;
+  for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
+  for (int i = 0; i < spheres; ++i)
+    rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
+  assemble_mass(rod);
+  status = factor_mass(rod);
+  if (status != VSC_OK) {
+    vsc_rod_destroy(rod);
+    return status;
+  }
+  *out = rod;
+  return VSC_OK;
+}
+
+void vsc_rod_destroy(vsc_rod* rod) {
+  if (!rod) return;
+  free(rod->sample_basis);
+  free(rod->sphere_basis);
+  free(rod->mass_band);
+  free(rod->mass_factor);
+  free(rod->mass_row_sum);
+  free(rod->pinned);
+  free(rod->is_pinned);
+  free(rod->sample_xyz);
+  free(rod->sample_force);
+  free(rod->sphere_xyz);
+  free(rod->sphere_velocity);
+  free(rod->stage);
+  free(rod);
+}
+
+void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
+  for (int a = 0; a < rod->sample_count; ++a) vsc_basis_point(&rod->sample_basis[a], q, rod->sample_xyz + 3 * a);
+}
+
+void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
+  int spheres = rod->def.collision_sphere_count;
+  for (int i = 0; i < spheres; ++i) {
+    vsc_basis_point(&rod->sphere_basis[i], q, rod->sphere_xyz + 3 * i);
+    if (v) vsc_basis_point(&rod->sphere_basis[i], v, rod->sphere_velocity + 3 * i);
+  }
+}
+
+static double distance3(const double* a, const double* b) {
+  double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+  return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+static double sample_length(const vsc_rod* rod) {
+  double total = 0.0;
+  for (int a = 0; a + 1 < rod->sample_count; ++a)
+    total += distance3(rod->sample_xyz + 3 * a, rod->sample_xyz + 3 * a + 3);
+  return total;
+}
+
+double vsc_rod_length(vsc_rod* rod, const double* q) {
+  vsc_rod_update_samples(rod, q);
+  return sample_length(rod);
+}
+
+// Spring between samples a and a + gap with tension `tension` (N, positive when
+// stretched): force +T e on a, -T e on a + gap, e the unit vector from a to a + gap.
+static void add_spring_force(double* f, const double* x, int a, int gap, double tension_of_length_k,
+                             double rest, double extra_tension) {
+  const double* pa = x + 3 * a;
+  const double* pb = x + 3 * (a + gap);
+  double e[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+  double l = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+  double scale = l > 0.0 ? (tension_of_length_k * (l - rest) + extra_tension) / l : 0.0;
+  for (int c = 0; c < 3; ++c) {
+    f[3 * a + c] += scale * e[c];
+    f[3 * (a + gap) + c] -= scale * e[c];
+  }
+}
+
+// Elastic sample forces -dE/dp into rod->sample_force (samples must be current).
+static void elastic_sample_forces(vsc_rod* rod) {
+  int N = rod->sample_count;
+  double* f = rod->sample_force;
+  const double* x = rod->sample_xyz;
+  memset(f, 0, sizeof(double) * 3 * N);
+  double global_tension = 0.0;  // dE_g/dl = K_g (l - length), shared by every stretch spring
+  if (rod->def.global_stretch_stiffness > 0.0)
+    global_tension = rod->def.global_stretch_stiffness * (sample_length(rod) - rod->def.length);
+  if (rod->stretch_spring > 0.0 || global_tension != 0.0)
+    for (int a = 0; a + 1 < N; ++a) add_spring_force(f, x, a, 1, rod->stretch_spring, rod->rest_spacing, global_tension);
+  if (rod->bend_spring > 0.0)
+    for (int a = 0; a + 2 < N; ++a) add_spring_force(f, x, a, 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
+}
+
+// Virtual work: Q_k += sum over samples a of b_k(s_a) F_a.
+static void transpose_to_control(const vsc_basis* basis, int count, const double* f, double* Q) {
+  for (int a = 0; a < count; ++a) {
+    const vsc_basis* b = &basis[a];
+    double* out = Q + 3 * b->first;
+    for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i) {
+      double w = b->weight[i];
+      out[3 * i] += w * f[3 * a];
+      out[3 * i + 1] += w * f[3 * a + 1];
+      out[3 * i + 2] += w * f[3 * a + 2];
+    }
+  }
+}
+
+void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                    double* Q, double* geom_wrench) {
+  int n = rod->n;
+  for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj
+    double m = rod->mass_row_sum[k];
+    Q[3 * k] = m * world->gravity[0];
+    Q[3 * k + 1] = m * world->gravity[1];
+    Q[3 * k + 2] = m * world->gravity[2];
+  }
+  vsc_rod_update_samples(rod, q);
+  elastic_sample_forces(rod);
+  transpose_to_control(rod->sample_basis, rod->sample_count, rod->sample_force, Q);
+  if (world->geom_count > 0) {
+    vsc_rod_update_spheres(rod, q, v);
+    vsc_rod_contact_forces(rod, world, Q, geom_wrench);
+  }
+}
+
+void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                          double* a) {
+  int n = rod->n;
+  vsc_rod_forces(rod, world, q, v, a, NULL);
+  for (int k = 0; k < n; ++k)
+    if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
+  vsc_band_solve3(rod->mass_factor, n, a);
+  // damping force -c M v gives acceleration -c v without a solve
+  double c = rod->def.damping;
+  for (int i = 0; i < 3 * n; ++i) a[i] -= c * v[i];
+  for (int k = 0; k < n; ++k)
+    if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
+}
+
+double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
+  vsc_rod_update_samples(rod, q);
+  int N = rod->sample_count;
+  const double* x = rod->sample_xyz;
+  double e = 0.0;
+  for (int a = 0; a + 1 < N; ++a) {
+    double d = distance3(x + 3 * a, x + 3 * a + 3) - rod->rest_spacing;
+    e += 0.5 * rod->stretch_spring * d * d;
+  }
+  for (int a = 0; a + 2 < N; ++a) {
+    double d = distance3(x + 3 * a, x + 3 * a + 6) - 2.0 * rod->rest_spacing;
+    e += 0.5 * rod->bend_spring * d * d;
+  }
+  double dl = sample_length(rod) - rod->def.length;
+  return e + 0.5 * rod->def.global_stretch_stiffness * dl * dl;
+}
+
+double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {
+  double e = 0.0;
+  for (int k = 0; k < rod->n; ++k)
+    e -= rod->mass_row_sum[k] * (gravity[0] * q[3 * k] + gravity[1] * q[3 * k + 1] + gravity[2] * q[3 * k + 2]);
+  return e;
+}
+
+double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
+  double* Mv = rod->stage;  // scratch
+  vsc_band_multiply3(rod->mass_band, rod->n, v, Mv);
+  double e = 0.0;
+  for (int i = 0; i < 3 * rod->n; ++i) e += 0.5 * v[i] * Mv[i];
+  return e;
+}
