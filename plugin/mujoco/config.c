@@ -1,0 +1,277 @@
+// Config reading and validation for viscera.intestine (see config.h).
+#include "config.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "viscera/vsc_layout.h"
+
+const char* const vsc_plugin_attributes[] = {
+    "length", "control_points", "mass", "density", "radius", "radius_min", "radius_max",
+    "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
+    "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
+    "start", "direction", "points", "box", "samples_per_segment"};
+const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
+
+#define VSC_PI 3.14159265358979323846
+#define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
+
+typedef struct reader {
+  const mjModel* m;
+  int instance;
+  char* error;
+  int error_size;
+} reader;
+
+static int fail(reader* r, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  int used = snprintf(r->error, (size_t)r->error_size, "viscera.intestine: ");
+  vsnprintf(r->error + used, (size_t)(r->error_size - used), format, args);
+  va_end(args);
+  return -1;
+}
+
+// The raw attribute string, or NULL when the attribute is absent or empty.
+static const char* raw(reader* r, const char* key) {
+  const char* value = mj_getPluginConfig(r->m, r->instance, key);
+  if (!value) return NULL;
+  while (*value == ' ' || *value == '\t' || *value == '\n') ++value;
+  return *value ? value : NULL;
+}
+
+// Parse whitespace-separated finite numbers into out (capacity `capacity`).
+// Returns the count, or -1 if a token is not a finite number.
+static int parse_numbers(const char* text, double* out, int capacity) {
+  int count = 0;
+  const char* p = text;
+  for (;;) {
+    while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') ++p;
+    if (!*p) return count;
+    char* end = NULL;
+    errno = 0;
+    double x = strtod(p, &end);
+    if (end == p || errno == ERANGE || !isfinite(x)) return -1;
+    if (*end && *end != ' ' && *end != '\t' && *end != '\n' && *end != '\r') return -1;
+    if (count >= capacity) return -2;
+    out[count++] = x;
+    p = end;
+  }
+}
+
+// A single finite number; `*present` says whether the key was given.
+static int read_number(reader* r, const char* key, double fallback, double* out, int* present) {
+  const char* text = raw(r, key);
+  if (present) *present = text != NULL;
+  if (!text) {
+    *out = fallback;
+    return 0;
+  }
+  double x;
+  if (parse_numbers(text, &x, 1) != 1) return fail(r, "attribute '%s' = '%s' is not a finite number", key, text);
+  *out = x;
+  return 0;
+}
+
+static int read_positive(reader* r, const char* key, double fallback, double* out, const char* unit) {
+  if (read_number(r, key, fallback, out, NULL)) return -1;
+  if (!(*out > 0.0)) return fail(r, "attribute '%s' = '%s' must be positive (%s)", key, raw(r, key), unit);
+  return 0;
+}
+
+static int read_nonnegative(reader* r, const char* key, double fallback, double* out, const char* unit) {
+  if (read_number(r, key, fallback, out, NULL)) return -1;
+  if (!(*out >= 0.0)) return fail(r, "attribute '%s' = '%s' must be >= 0 (%s)", key, raw(r, key), unit);
+  return 0;
+}
+
+static int read_count(reader* r, const char* key, int fallback, int minimum, int* out) {
+  const char* text = raw(r, key);
+  if (!text) {
+    *out = fallback;
+    return 0;
+  }
+  char* end = NULL;
+  errno = 0;
+  long x = strtol(text, &end, 10);
+  while (end && (*end == ' ' || *end == '\t' || *end == '\n')) ++end;
+  if (end == text || *end || errno == ERANGE || x > 100000000L)
+    return fail(r, "attribute '%s' = '%s' is not an integer", key, text);
+  if (x < minimum) return fail(r, "attribute '%s' = '%s' must be at least %d", key, text, minimum);
+  *out = (int)x;
+  return 0;
+}
+
+// Exactly `count` numbers (for start, direction, box).
+static int read_vector(reader* r, const char* key, int count, const double* fallback, double* out) {
+  const char* text = raw(r, key);
+  if (!text) {
+    memcpy(out, fallback, sizeof(double) * (size_t)count);
+    return 0;
+  }
+  double buffer[8];
+  int got = parse_numbers(text, buffer, 8);
+  if (got != count) return fail(r, "attribute '%s' = '%s' must be %d finite numbers", key, text, count);
+  memcpy(out, buffer, sizeof(double) * (size_t)count);
+  return 0;
+}
+
+static int read_pinned(reader* r, vsc_plugin_config* c) {
+  const char* text = raw(r, "pinned");
+  c->pinned = NULL;
+  c->rod.pinned = NULL;
+  c->rod.pinned_count = 0;
+  if (!text) return 0;
+  int n = c->rod.control_count, capacity = n;
+  c->pinned = (int*)malloc(sizeof(int) * (size_t)capacity);
+  if (!c->pinned) return fail(r, "out of memory reading 'pinned'");
+  const char* p = text;
+  for (;;) {
+    while (*p == ' ' || *p == '\t' || *p == '\n') ++p;
+    if (!*p) break;
+    char* end = NULL;
+    errno = 0;
+    long k = strtol(p, &end, 10);
+    if (end == p || (*end && *end != ' ' && *end != '\t' && *end != '\n') || errno == ERANGE)
+      return fail(r, "attribute 'pinned' = '%s' must be control point indices (integers)", text);
+    if (k < 0 || k >= n)
+      return fail(r, "attribute 'pinned' = '%s': index %ld is out of range [0, %d]", text, k, n - 1);
+    int seen = 0;
+    for (int i = 0; i < c->rod.pinned_count; ++i) seen |= c->pinned[i] == (int)k;
+    if (!seen) c->pinned[c->rod.pinned_count++] = (int)k;
+    p = end;
+  }
+  c->rod.pinned = c->pinned;
+  return 0;
+}
+
+static int read_shape(reader* r, vsc_plugin_config* c) {
+  const char* text = raw(r, "shape");
+  static const double default_start[3] = {0.0, 0.0, 0.0}, default_direction[3] = {1.0, 0.0, 0.0};
+  static const double no_box[6] = {0, 0, 0, 0, 0, 0};
+  if (!text || strcmp(text, "line") == 0) {
+    c->shape = VSC_SHAPE_LINE;
+  } else if (strcmp(text, "polyline") == 0) {
+    c->shape = VSC_SHAPE_POLYLINE;
+  } else if (strcmp(text, "serpentine") == 0) {
+    c->shape = VSC_SHAPE_SERPENTINE;
+  } else {
+    return fail(r, "attribute 'shape' = '%s' must be one of line, polyline, serpentine", text);
+  }
+  if (read_vector(r, "start", 3, default_start, c->start)) return -1;
+  if (read_vector(r, "direction", 3, default_direction, c->direction)) return -1;
+  double norm = sqrt(c->direction[0] * c->direction[0] + c->direction[1] * c->direction[1] +
+                     c->direction[2] * c->direction[2]);
+  if (!(norm > 0.0) || !isfinite(norm)) return fail(r, "attribute 'direction' = '%s' must be a non-zero vector", raw(r, "direction"));
+  for (int i = 0; i < 3; ++i) c->direction[i] /= norm;
+  if (read_vector(r, "box", 6, no_box, c->box)) return -1;
+  if (c->shape == VSC_SHAPE_SERPENTINE) {
+    if (!raw(r, "box")) return fail(r, "attribute 'box' is required by shape 'serpentine' (6 numbers, m)");
+    for (int i = 0; i < 3; ++i)
+      if (!(c->box[3 + i] > c->box[i])) return fail(r, "attribute 'box' = '%s' must give min then max corners", raw(r, "box"));
+    double capacity = vsc_layout_serpentine_capacity(c->rod.radius, c->box);
+    if (capacity < c->rod.length * (1.0 - 1e-9))
+      return fail(r, "attribute 'box' = '%s' cannot hold a serpentine of length %g m and radius %g m "
+                  "(it holds %g m)", raw(r, "box"), c->rod.length, c->rod.radius, capacity);
+  }
+  c->points = NULL;
+  c->point_count = 0;
+  const char* points = raw(r, "points");
+  if (c->shape == VSC_SHAPE_POLYLINE) {
+    if (!points) return fail(r, "attribute 'points' is required by shape 'polyline' (3k numbers, m)");
+    c->points = (double*)malloc(sizeof(double) * MAX_NUMBERS);
+    if (!c->points) return fail(r, "out of memory reading 'points'");
+    int got = parse_numbers(points, c->points, MAX_NUMBERS);
+    if (got < 0) return fail(r, "attribute 'points' must be finite numbers (at most %d)", MAX_NUMBERS);
+    if (got % 3 != 0 || got < 6)
+      return fail(r, "attribute 'points' holds %d numbers: a polyline needs at least 2 points of 3 numbers", got);
+    c->point_count = got / 3;
+  }
+  return 0;
+}
+
+int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {
+  reader r = {m, instance, error, error_size};
+  memset(c, 0, sizeof(*c));
+  c->rod = vsc_default_rod_def();
+  vsc_rod_def* d = &c->rod;
+  int failed =
+      read_positive(&r, "length", d->length, &d->length, "m") ||
+      read_count(&r, "control_points", d->control_count, 4, &d->control_count) ||
+      read_positive(&r, "radius", d->radius, &d->radius, "m") ||
+      read_count(&r, "samples_per_segment", d->samples_per_segment, 1, &d->samples_per_segment);
+  if (failed) return -1;
+  // mass: given, or from the density of a full tube of the contact radius
+  double density = 1000.0;
+  int mass_given = 0, density_given = 0;
+  if (read_number(&r, "mass", 0.0, &d->mass, &mass_given) || read_number(&r, "density", 1000.0, &density, &density_given))
+    return -1;
+  if (mass_given && density_given) return fail(&r, "attributes 'mass' and 'density' are both given: give one");
+  if (mass_given && !(d->mass > 0.0)) return fail(&r, "attribute 'mass' = '%s' must be positive (kg)", raw(&r, "mass"));
+  if (!mass_given) {
+    if (!(density > 0.0)) return fail(&r, "attribute 'density' = '%s' must be positive (kg/m^3)", raw(&r, "density"));
+    d->mass = density * VSC_PI * d->radius * d->radius * d->length;
+  }
+  failed =
+      read_positive(&r, "radius_max", d->radius, &c->radius_max, "m") ||
+      read_positive(&r, "radius_min", c->radius_max, &c->radius_min, "m") ||
+      read_nonnegative(&r, "stretch_stiffness", d->stretch_stiffness, &d->stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "bend_stiffness", d->bend_stiffness, &d->bend_stiffness, "N/m") ||
+      read_nonnegative(&r, "global_stretch_stiffness", d->global_stretch_stiffness, &d->global_stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
+      read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
+      read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
+      read_count(&r, "substeps", 2, 1, &c->substeps) ||
+      read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
+                 &d->collision_sphere_count);
+  if (failed) return -1;
+  if (c->radius_min > c->radius_max)
+    return fail(&r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->radius_min, c->radius_max);
+  if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)
+    return fail(&r, "attributes 'stretch_stiffness', 'bend_stiffness' and 'global_stretch_stiffness' are all 0: "
+                "nothing holds the intestine together");
+  const char* integrator = raw(&r, "integrator");
+  if (integrator && strcmp(integrator, "rk4") != 0)
+    return fail(&r, "attribute 'integrator' = '%s' must be rk4", integrator);
+  c->integrator = VSC_INTEGRATOR_RK4;
+  if (read_pinned(&r, c) || read_shape(&r, c)) {
+    vsc_plugin_config_free(c);
+    return -1;
+  }
+  return 0;
+}
+
+void vsc_plugin_config_free(vsc_plugin_config* c) {
+  free(c->pinned);
+  free(c->points);
+  c->pinned = NULL;
+  c->points = NULL;
+  c->rod.pinned = NULL;
+}
+
+int vsc_plugin_config_layout(const vsc_plugin_config* c, double* q, char* error, int error_size) {
+  int n = c->rod.control_count;
+  vsc_status status = VSC_OK;
+  const char* what = "";
+  switch (c->shape) {
+    case VSC_SHAPE_LINE:
+      status = vsc_layout_line(n, c->rod.length, c->start, c->direction, q);
+      what = "line";
+      break;
+    case VSC_SHAPE_POLYLINE:
+      status = vsc_layout_polyline(n, c->rod.length, c->points, c->point_count, q);
+      what = "polyline 'points' (shorter than 'length'?)";
+      break;
+    case VSC_SHAPE_SERPENTINE:
+      status = vsc_layout_serpentine(n, c->rod.length, c->rod.radius, c->box, q);
+      what = "serpentine 'box'";
+      break;
+  }
+  if (status == VSC_OK) return 0;
+  snprintf(error, (size_t)error_size, "viscera.intestine: cannot lay out the %s: %s", what, vsc_status_string(status));
+  return -1;
+}

@@ -1,0 +1,48 @@
+// Reads and checks the viscera.intestine plugin's config attributes, in one place.
+// Units are SI; every key, its unit and default are listed in README.md.
+#ifndef VISCERA_PLUGIN_CONFIG_H
+#define VISCERA_PLUGIN_CONFIG_H
+
+#include <mujoco/mujoco.h>
+
+#include "viscera/vsc_integrate.h"
+#include "viscera/vsc_rod.h"
+
+/// Config attribute names, in the order MuJoCo is told about them.
+extern const char* const vsc_plugin_attributes[];
+extern const int vsc_plugin_attribute_count;
+
+/// Initial shape of the axis.
+typedef enum vsc_shape_kind { VSC_SHAPE_LINE, VSC_SHAPE_POLYLINE, VSC_SHAPE_SERPENTINE } vsc_shape_kind;
+
+/// Everything an instance's config defines. Owns `pinned` and `points`.
+typedef struct vsc_plugin_config {
+  vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
+  int substeps;               ///< RK4 substeps per MuJoCo step (>= 1)
+  vsc_integrator integrator;  ///< only rk4 for now
+  double radius_min;          ///< skin radius between control points (m)
+  double radius_max;          ///< skin radius at control points (m)
+  vsc_shape_kind shape;
+  double start[3];            ///< line start (m)
+  double direction[3];        ///< line direction (unit)
+  double box[6];              ///< serpentine box: min then max corner (m)
+  double* points;             ///< polyline vertices (m, 3 x point_count)
+  int point_count;
+  int* pinned;                ///< pinned control point indices
+} vsc_plugin_config;
+
+/// Parse and validate the config of plugin instance `instance`. On a bad
+/// value it writes a message naming the attribute and the value into `error`
+/// and returns -1 (nothing to free); on success returns 0 and the caller must
+/// call vsc_plugin_config_free.
+int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* config, char* error,
+                           int error_size);
+
+/// Release what vsc_plugin_config_read allocated.
+void vsc_plugin_config_free(vsc_plugin_config* config);
+
+/// Lay out the initial control points (m, 3n) described by the config.
+/// Returns 0, or -1 with a message in `error` if the shape cannot be laid out.
+int vsc_plugin_config_layout(const vsc_plugin_config* config, double* q, char* error, int error_size);
+
+#endif  // VISCERA_PLUGIN_CONFIG_H

@@ -1,0 +1,25 @@
+// A few core functions exported for the Python package (ctypes), so Python
+// evaluates the axis with the very basis the plugin uses and reads the config
+// attribute list from its single definition.
+#include "config.h"
+#include "viscera/vsc_spline.h"
+
+#define VSC_EXPORT __attribute__((visibility("default")))
+
+/// Number of config attributes of viscera.intestine.
+VSC_EXPORT int viscera_attribute_count(void) { return vsc_plugin_attribute_count; }
+
+/// Name of config attribute i (static storage), NULL if out of range.
+VSC_EXPORT const char* viscera_attribute_name(int i) {
+  return i >= 0 && i < vsc_plugin_attribute_count ? vsc_plugin_attributes[i] : 0;
+}
+
+/// Basis windows of `count` abscissae s (in [0, 1]) of an n-point spline:
+/// first[i] and weight[4 i .. 4 i + 3], as in vsc_spline_basis.
+VSC_EXPORT void viscera_spline_basis(int n, int count, const double* s, int* first, double* weight) {
+  for (int i = 0; i < count; ++i) {
+    vsc_basis b = vsc_spline_basis(n, s[i]);
+    first[i] = b.first;
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) weight[4 * i + j] = b.weight[j];
+  }
+}

@@ -1,0 +1,282 @@
+// viscera.intestine callbacks: the rod integrates in `advance` (once per
+// mj_step, whatever MuJoCo's integrator), and `compute` only adds the rod's
+// contact reactions to qfrc_passive, so calling it four times under RK4, or
+// from mj_forward, changes nothing in plugin_state.
+#include "intestine.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <mujoco/mujoco.h>
+
+#include "config.h"
+#include "viscera/vsc_contact.h"
+
+#define ERROR_SIZE 512
+
+// Intestine collision filter, MuJoCo's rule: contype & conaffinity' || contype' & conaffinity.
+#define INTESTINE_CONTYPE 1
+#define INTESTINE_CONAFFINITY 1
+
+typedef struct intestine {
+  const mjModel* model;   // the model these caches were built for
+  vsc_plugin_config config;
+  vsc_rod* rod;
+  double* initial_q;      // initial control points (m, 3n)
+  int* geom_ids;          // MuJoCo geoms that may touch the intestine (geom_count)
+  vsc_geom* geoms;        // their world description, refreshed each call (geom_count)
+  int geom_count;
+  double* geom_wrench;    // reaction on each geom (6 x geom_count)
+  double* scratch;        // generalised forces (3n)
+} intestine;
+
+static vsc_geom_type geom_type(int mujoco_type, int* supported) {
+  *supported = 1;
+  switch (mujoco_type) {
+    case mjGEOM_PLANE: return VSC_GEOM_PLANE;
+    case mjGEOM_SPHERE: return VSC_GEOM_SPHERE;
+    case mjGEOM_CAPSULE: return VSC_GEOM_CAPSULE;
+    case mjGEOM_CYLINDER: return VSC_GEOM_CYLINDER;
+    case mjGEOM_BOX: return VSC_GEOM_BOX;
+    default: *supported = 0; return VSC_GEOM_PLANE;
+  }
+}
+
+static void intestine_free(intestine* it) {
+  if (!it) return;
+  vsc_rod_destroy(it->rod);
+  vsc_plugin_config_free(&it->config);
+  free(it->initial_q);
+  free(it->geom_ids);
+  free(it->geoms);
+  free(it->geom_wrench);
+  free(it->scratch);
+  free(it);
+}
+
+// Build every model-derived cache. Returns NULL and fills `error` on failure.
+static intestine* intestine_create(const mjModel* m, int instance, char* error) {
+  intestine* it = (intestine*)calloc(1, sizeof(intestine));
+  if (!it) return NULL;
+  if (vsc_plugin_config_read(m, instance, &it->config, error, ERROR_SIZE)) {
+    free(it);
+    return NULL;
+  }
+  it->model = m;
+  int n = it->config.rod.control_count;
+  it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  it->scratch = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  it->geom_ids = (int*)malloc(sizeof(int) * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
+  it->geoms = (vsc_geom*)calloc((size_t)(m->ngeom > 0 ? m->ngeom : 1), sizeof(vsc_geom));
+  it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
+  if (!it->initial_q || !it->scratch || !it->geom_ids || !it->geoms || !it->geom_wrench) {
+    strcpy(error, "viscera.intestine: out of memory");
+    intestine_free(it);
+    return NULL;
+  }
+  if (vsc_plugin_config_layout(&it->config, it->initial_q, error, ERROR_SIZE)) {
+    intestine_free(it);
+    return NULL;
+  }
+  vsc_status status = vsc_rod_create(&it->config.rod, &it->rod);
+  if (status != VSC_OK) {
+    snprintf(error, ERROR_SIZE, "viscera.intestine: cannot build the rod: %s", vsc_status_string(status));
+    intestine_free(it);
+    return NULL;
+  }
+  for (int g = 0; g < m->ngeom; ++g) {
+    int supported;
+    geom_type(m->geom_type[g], &supported);
+    int filtered = (m->geom_contype[g] & INTESTINE_CONAFFINITY) || (m->geom_conaffinity[g] & INTESTINE_CONTYPE);
+    if (supported && filtered) it->geom_ids[it->geom_count++] = g;
+  }
+  return it;
+}
+
+static int state_size(int n) { return 6 * n + 1; }
+
+static void write_initial_state(const intestine* it, mjtNum* state) {
+  int n = it->config.rod.control_count;
+  memcpy(state, it->initial_q, sizeof(double) * 3 * (size_t)n);
+  memset(state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
+}
+
+// The caches of this data, rebuilt if the data is stepped with another model
+// (multi-model rollouts). NULL only if the rebuild fails.
+static intestine* caches(const mjModel* m, mjData* d, int instance) {
+  intestine* it = (intestine*)d->plugin_data[instance];
+  if (it && it->model == m) return it;
+  char error[ERROR_SIZE];
+  intestine* fresh = intestine_create(m, instance, error);
+  if (!fresh) {
+    mju_warning("%s", error);
+    return NULL;
+  }
+  if (it && it->config.rod.control_count != fresh->config.rod.control_count) {
+    mju_warning("viscera.intestine: model has %d control points, data was made for %d; not stepped",
+                fresh->config.rod.control_count, it->config.rod.control_count);
+    intestine_free(fresh);
+    return NULL;
+  }
+  intestine_free(it);
+  d->plugin_data[instance] = (uintptr_t)fresh;
+  return fresh;
+}
+
+// World description of the candidate geoms from the current mjData.
+static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
+  for (int i = 0; i < it->geom_count; ++i) {
+    int g = it->geom_ids[i], supported;
+    vsc_geom* out = &it->geoms[i];
+    out->type = geom_type(m->geom_type[g], &supported);
+    for (int c = 0; c < 3; ++c) {
+      out->position[c] = d->geom_xpos[3 * g + c];
+      out->size[c] = m->geom_size[3 * g + c];
+    }
+    for (int c = 0; c < 9; ++c) out->rotation[c] = d->geom_xmat[9 * g + c];
+    out->bound_radius = m->geom_type[g] == mjGEOM_PLANE ? 0.0 : m->geom_rbound[g];
+    if (m->body_dofnum[m->geom_bodyid[g]] == 0 && m->body_mocapid[m->geom_bodyid[g]] < 0 &&
+        m->body_weldid[m->geom_bodyid[g]] == 0) {
+      memset(out->linear_velocity, 0, sizeof(out->linear_velocity));  // static geom
+      memset(out->angular_velocity, 0, sizeof(out->angular_velocity));
+    } else {
+      mjtNum velocity[6];  // rotation then translation, world frame, at the geom origin
+      mj_objectVelocity(m, d, mjOBJ_GEOM, g, velocity, 0);
+      for (int c = 0; c < 3; ++c) {
+        out->angular_velocity[c] = velocity[c];
+        out->linear_velocity[c] = velocity[3 + c];
+      }
+    }
+  }
+}
+
+static int all_finite(const mjtNum* x, int size) {
+  for (int i = 0; i < size; ++i)
+    if (!isfinite(x[i])) return 0;
+  return 1;
+}
+
+static int contacts_enabled(const mjModel* m) { return !(m->opt.disableflags & mjDSBL_CONTACT); }
+
+static int intestine_nstate(const mjModel* m, int instance) {
+  // Validate here: an error in nstate fails model compilation with our message.
+  vsc_plugin_config config;
+  char error[ERROR_SIZE];
+  if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) mju_error("%s", error);
+  int n = config.rod.control_count;
+  double* q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  int failed = !q || vsc_plugin_config_layout(&config, q, error, ERROR_SIZE);
+  free(q);
+  vsc_plugin_config_free(&config);
+  if (failed) mju_error("%s", error);
+  return state_size(n);
+}
+
+static int intestine_init(const mjModel* m, mjData* d, int instance) {
+  char error[ERROR_SIZE];
+  intestine* it = intestine_create(m, instance, error);
+  if (!it) {
+    mju_warning("%s", error);
+    return -1;
+  }
+  d->plugin_data[instance] = (uintptr_t)it;
+  write_initial_state(it, d->plugin_state + m->plugin_stateadr[instance]);
+  return 0;
+}
+
+static void intestine_destroy(mjData* d, int instance) {
+  intestine_free((intestine*)d->plugin_data[instance]);
+  d->plugin_data[instance] = 0;
+}
+
+static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  intestine* it = (intestine*)plugin_data;
+  if (it) write_initial_state(it, plugin_state);
+}
+
+// Reaction of the intestine on the MuJoCo bodies it touches, into qfrc_passive.
+static void intestine_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+  intestine* it = caches(m, d, instance);
+  if (!it || it->geom_count == 0 || !contacts_enabled(m)) return;
+  int n = it->config.rod.control_count;
+  const mjtNum* q = d->plugin_state + m->plugin_stateadr[instance];
+  const mjtNum* v = q + 3 * n;
+  if (!all_finite(q, 6 * n)) return;
+  update_geoms(m, d, it);
+  vsc_rod_update_spheres(it->rod, q, v);
+  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
+  memset(it->scratch, 0, sizeof(double) * 3 * (size_t)n);
+  vsc_world world = {{0, 0, 0}, it->geoms, it->geom_count};
+  if (vsc_rod_contact_forces(it->rod, &world, it->scratch, it->geom_wrench) == 0) return;
+  for (int i = 0; i < it->geom_count; ++i) {
+    const double* w = it->geom_wrench + 6 * i;
+    int body = m->geom_bodyid[it->geom_ids[i]];
+    if (body == 0 || (w[0] == 0 && w[1] == 0 && w[2] == 0 && w[3] == 0 && w[4] == 0 && w[5] == 0)) continue;
+    if (!all_finite(w, 6)) continue;  // never hand MuJoCo a NaN
+    mj_applyFT(m, d, w, w + 3, it->geoms[i].position, body, d->qfrc_passive);
+  }
+}
+
+// Integrate the rod over one MuJoCo step against the geoms' poses at the step start.
+static void intestine_advance(const mjModel* m, mjData* d, int instance) {
+  intestine* it = caches(m, d, instance);
+  if (!it) return;
+  int n = it->config.rod.control_count;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  if (!all_finite(state, 6 * n)) {  // e.g. a bad mj_setState: start over from the initial shape
+    mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
+    double count = isfinite(state[6 * n]) ? state[6 * n] : 0.0;
+    write_initial_state(it, state);
+    state[6 * n] = count + 1.0;
+    return;
+  }
+  vsc_world world = {{0, 0, 0}, it->geoms, contacts_enabled(m) ? it->geom_count : 0};
+  if (!(m->opt.disableflags & mjDSBL_GRAVITY))
+    for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
+  if (world.geom_count > 0) update_geoms(m, d, it);
+  vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, m->opt.timestep, it->config.substeps);
+  if (status == VSC_ERROR_DIVERGED) {
+    state[6 * n] += 1.0;
+    mju_warning("viscera.intestine: state diverged at t = %g s and was restored; lower the timestep, "
+                "raise 'substeps' or soften 'stretch_stiffness'/'contact_stiffness'", d->time);
+  }
+}
+
+static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
+  intestine* it = caches(m, d, instance);
+  if (!it) return;
+  const mjtNum* q = d->plugin_state + m->plugin_stateadr[instance];
+  if (!all_finite(q, 3 * it->config.rod.control_count)) return;
+  vsc_rod_update_samples(it->rod, q);
+  static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f};
+  double radius = it->config.rod.radius;
+  int samples = it->rod->sample_count;
+  for (int a = 0; a + 1 < samples; ++a) {
+    if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
+    mjvGeom* geom = scn->geoms + scn->ngeom;
+    mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);
+    mjv_connector(geom, mjGEOM_CAPSULE, radius, it->rod->sample_xyz + 3 * a, it->rod->sample_xyz + 3 * a + 3);
+    geom->category = mjCAT_DYNAMIC;
+    scn->ngeom++;
+  }
+}
+
+void vsc_plugin_register_intestine(void) {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = "viscera.intestine";
+  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
+  plugin.nattribute = vsc_plugin_attribute_count;
+  plugin.attributes = vsc_plugin_attributes;
+  plugin.nstate = intestine_nstate;
+  plugin.init = intestine_init;
+  plugin.destroy = intestine_destroy;
+  plugin.reset = intestine_reset;
+  plugin.compute = intestine_compute;
+  plugin.advance = intestine_advance;
+  plugin.visualize = intestine_visualize;
+  mjp_registerPlugin(&plugin);
+}

@@ -1,0 +1,16 @@
+// viscera.intestine: the spline intestine as a MuJoCo passive-force plugin.
+//
+// plugin_state layout per instance (n control points, mjtNums):
+//   [0, 3n)        control point positions, x y z per point (m, world frame)
+//   [3n, 6n)       control point velocities (m/s)
+//   [6n]           divergence count: steps whose state became non-finite or
+//                  faster than 1e4 m/s and was restored (reset writes 0)
+// plugin_data holds only caches derived from the model (the rod's mass matrix
+// factor, basis tables, scratch), one per mjData.
+#ifndef VISCERA_PLUGIN_INTESTINE_H
+#define VISCERA_PLUGIN_INTESTINE_H
+
+/// Register viscera.intestine with MuJoCo.
+void vsc_plugin_register_intestine(void);
+
+#endif  // VISCERA_PLUGIN_INTESTINE_H

@@ -1,0 +1,25 @@
+"""viscera: a real-time laparoscopic intestine simulator on MuJoCo.
+
+Importing the package registers the ``viscera.intestine`` MuJoCo plugin
+(once per process), so any MJCF that declares it compiles afterwards.
+"""
+
+import os
+
+# Headless by default: without a display GLFW cannot render, EGL (Mesa) can.
+# Must be decided before mujoco is first imported; the user's choice wins.
+if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+    os.environ["MUJOCO_GL"] = "egl"
+
+from viscera import _library  # noqa: E402
+from viscera.intestine import (  # noqa: E402PLUGIN_NAME, Intestine, add_to_mjcf, attribute_names, config_strings,
+                               extension_xml, intestine, intestines, spline_points)
+
+__version__ = "0.1.0"
+
+PLUGIN_LIBRARY = _library.load()
+
+__all__ = [
+    "PLUGIN_LIBRARY", "PLUGIN_NAME", "Intestine", "add_to_mjcf", "attribute_names", "config_strings",
+    "extension_xml", "intestine", "intestines", "spline_points",
+]

@@ -1,0 +1,172 @@
+"""Reading intestines out of MuJoCo models and data, and writing their MJCF.
+
+State layout of one ``viscera.intestine`` instance in ``data.plugin_state``
+(n control points): positions ``[0, 3n)`` (m, world frame, x y z per point),
+velocities ``[3n, 6n)`` (m/s), then the divergence count ``[6n]``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+from typing import Any, Mapping
+
+import mujoco
+import numpy as np
+
+from viscera import _library
+
+PLUGIN_NAME = "viscera.intestine"
+
+
+def attribute_names() -> tuple[str, ...]:
+    """Config keys the plugin accepts, from the plugin library itself."""
+    lib = _library.native()
+    return tuple(lib.viscera_attribute_name(i).decode() for i in range(lib.viscera_attribute_count()))
+
+
+def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarray:
+    """Points of the Catmull-Rom axis at parametric abscissae s in [0, 1] (m, shape (k, 3)).
+
+    Uses the plugin's own basis (end closure included) through ctypes.
+    """
+    q = np.ascontiguousarray(control_points, dtype=np.float64).reshape(-1, 3)
+    s = np.ascontiguousarray(abscissae, dtype=np.float64).ravel()
+    first = np.empty(s.size, dtype=np.int32)
+    weight = np.empty((s.size, 4), dtype=np.float64)
+    _library.native().viscera_spline_basis(
+        q.shape[0], s.size, s.ctypes.data_as(ctypes.c_void_p), first.ctypes.data_as(ctypes.c_void_p),
+        weight.ctypes.data_as(ctypes.c_void_p))
+    window = q[first[:, None] + np.arange(4)[None, :]]  # (k, 4, 3)
+    return np.einsum("kj,kjc->kc", weight, window)
+
+
+@dataclasses.dataclass(frozen=True)
+class Intestine:
+    """One viscera.intestine instance of a compiled model: config and state accessors."""
+
+    model: mujoco.MjModel
+    instance: int
+    name: str
+    config: Mapping[str, str]
+
+    @property
+    def control_count(self) -> int:
+        return (int(self.model.plugin_statenum[self.instance]) - 1) // 6
+
+    @property
+    def rest_length(self) -> float:
+        """Rest length of the axis (m)."""
+        return float(self.config.get("length") or 4.0)
+
+    @property
+    def radius(self) -> float:
+        """Tube radius used by contacts (m)."""
+        return float(self.config.get("radius") or 0.0125)
+
+    @property
+    def sphere_count(self) -> int:
+        given = self.config.get("collision_spheres")
+        if given:
+            return int(given)
+        return int(np.ceil(self.rest_length / (2.0 * self.radius) - 1e-9)) + 1
+
+    def _state(self, data: mujoco.MjData) -> np.ndarray:
+        start = int(self.model.plugin_stateadr[self.instance])
+        return data.plugin_state[start:start + int(self.model.plugin_statenum[self.instance])]
+
+    def positions(self, data: mujoco.MjData) -> np.ndarray:
+        """Control point positions (m, shape (n, 3)), a view into data.plugin_state."""
+        n = self.control_count
+        return self._state(data)[:3 * n].reshape(n, 3)
+
+    def velocities(self, data: mujoco.MjData) -> np.ndarray:
+        """Control point velocities (m/s, shape (n, 3)), a view into data.plugin_state."""
+        n = self.control_count
+        return self._state(data)[3 * n:6 * n].reshape(n, 3)
+
+    def divergence_count(self, data: mujoco.MjData) -> int:
+        """Number of steps whose state diverged and was restored since the last reset."""
+        return int(self._state(data)[6 * self.control_count])
+
+    def axis_points(self, data: mujoco.MjData, count: int = 1000) -> np.ndarray:
+        """`count` points of the axis, uniform in parametric abscissa (m, shape (count, 3))."""
+        return spline_points(self.positions(data), np.linspace(0.0, 1.0, count))
+
+    def sphere_centres(self, data: mujoco.MjData) -> np.ndarray:
+        """Collision sphere centres (m, shape (spheres, 3))."""
+        return spline_points(self.positions(data), np.linspace(0.0, 1.0, self.sphere_count))
+
+    def length(self, data: mujoco.MjData, count: int = 4000) -> float:
+        """Current length of the axis (m), from `count` points along it."""
+        points = self.axis_points(data, count)
+        return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
+
+
+def intestines(model: mujoco.MjModel) -> list[Intestine]:
+    """Every viscera.intestine instance of a compiled model."""
+    names = attribute_names()
+    found = []
+    raw = bytes(model.plugin_attr)
+    for instance in range(model.nplugin):
+        # MuJoCo stores each instance's values NUL-terminated, in attribute order.
+        start = int(model.plugin_attradr[instance])
+        values = raw[start:].split(b"\0")[:len(names)]
+        statenum = int(model.plugin_statenum[instance])
+        if len(values) < len(names) or statenum < 25 or (statenum - 1) % 6:
+            continue
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, instance) or f"intestine{instance}"
+        config = {key: value.decode() for key, value in zip(names, values) if value}
+        found.append(Intestine(model, instance, name, config))
+    return found
+
+
+def intestine(model: mujoco.MjModel, name: str | None = None) -> Intestine:
+    """The intestine called `name` (or the only one) of a compiled model."""
+    found = intestines(model)
+    if name is not None:
+        found = [it for it in found if it.name == name or it.name.endswith("/" + name)]
+    if len(found) != 1:
+        raise KeyError(f"expected one viscera.intestine named {name!r}, found {[it.name for it in found]}")
+    return found[0]
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        return "1" if value else "0"
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return repr(float(value)) if isinstance(value, (float, np.floating)) else str(int(value))
+    array = np.asarray(value).ravel()
+    if array.dtype.kind in "iu":
+        return " ".join(str(int(x)) for x in array)
+    return " ".join(repr(float(x)) for x in array)
+
+
+def config_strings(**config: Any) -> dict[str, str]:
+    """Config values as the strings MJCF carries; unknown keys raise ValueError."""
+    known = set(attribute_names())
+    unknown = sorted(set(config) - known)
+    if unknown:
+        raise ValueError(f"unknown viscera.intestine config key(s) {unknown}; known: {sorted(known)}")
+    return {key: _format(value) for key, value in config.items()}
+
+
+def extension_xml(name: str = "intestine", **config: Any) -> str:
+    """The ``<extension>`` element declaring one intestine, as an MJCF string."""
+    lines = [f'<extension>\n  <plugin plugin="{PLUGIN_NAME}">\n    <instance name="{name}">']
+    for key, value in config_strings(**config).items():
+        lines.append(f'      <config key="{key}" value="{value}"/>')
+    lines.append("    </instance>\n  </plugin>\n</extension>")
+    return "\n".join(lines)
+
+
+def add_to_mjcf(root: Any, name: str = "intestine", **config: Any) -> Any:
+    """Add an intestine instance to a dm_control.mjcf root element; returns the instance element."""
+    plugins = [p for p in root.extension.get_children("plugin") if p.plugin == PLUGIN_NAME]
+    plugin = plugins[0] if plugins else root.extension.add("plugin", plugin=PLUGIN_NAME)
+    instance = plugin.add("instance", name=name)
+    for key, value in config_strings(**config).items():
+        instance.add("config", key=key, value=value)
+    return instance
