@@ -239,9 +239,11 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (world.geom_count > 0) update_geoms(m, d, it);
   vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, m->opt.timestep, it->config.substeps);
   if (status == VSC_ERROR_DIVERGED) {
-    state[6 * n] += 1.0;
-    mju_warning("viscera.intestine: state diverged at t = %g s and was restored; lower the timestep, "
-                "raise 'substeps' or soften 'stretch_stiffness'/'contact_stiffness'", d->time);
+    double count = state[6 * n] += 1.0;
+    if (count == ldexp(1.0, ilogb(count)))  // warn at counts 1, 2, 4, 8...: no spam
+      mju_warning("viscera.intestine: state diverged at t = %g s and was restored; lower the timestep, "
+                  "raise 'substeps' or soften 'stretch_stiffness'/'contact_stiffness' (%g times so far)",
+                  d->time, count);
   }
 }
 

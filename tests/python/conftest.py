@@ -1,0 +1,26 @@
+"""Shared helpers: small MJCF scenes around one intestine."""
+
+import mujoco
+import pytest
+
+import viscera
+
+
+def scene_xml(body: str = "", options: str = 'timestep="0.002"', name: str = "gut", **config) -> str:
+    """An MJCF model with one intestine (config as keyword arguments) and extra worldbody XML."""
+    return (f"<mujoco><option {options}/>{viscera.extension_xml(name, **config)}"
+            f"<worldbody>{body}</worldbody></mujoco>")
+
+
+def compile_scene(body: str = "", options: str = 'timestep="0.002"', **config):
+    model = mujoco.MjModel.from_xml_string(scene_xml(body, options, **config))
+    return model, mujoco.MjData(model), viscera.intestine(model)
+
+
+@pytest.fixture
+def falling_line():
+    """A 1 m, 40-point intestine 0.5 m above a plane, tilted, with a free box below one end."""
+    body = ('<geom name="floor" type="plane" size="3 3 0.1"/>'
+            '<body name="box" pos="0.3 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="0.1"/></body>')
+    return compile_scene(body, length=1.0, control_points=40, shape="line", start=[0.0, 0.0, 0.3],
+                         direction=[1.0, 0.0, 0.1])
