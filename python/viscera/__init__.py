@@ -12,8 +12,9 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "egl"
 
 from viscera import _library  # noqa: E402
-from viscera.intestine import (  # noqa: E402PLUGIN_NAME, Intestine, add_to_mjcf, attribute_names, config_strings,
-                               extension_xml, intestine, intestines, spline_points)
+from viscera.intestine import (  # noqa: E402
+    PLUGIN_NAME, Intestine, add_to_mjcf, attribute_names, config_strings, extension_xml, intestine, intestines,
+    spline_points)
 
 __version__ = "0.1.0"
 

@@ -1,0 +1,75 @@
+"""The package's front doors: import, MJCF builders, the CLI."""
+
+import pathlib
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+
+import viscera
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCENE = ROOT / "assets" / "scenes" / "fall_on_plane.xml"
+
+
+def test_import_loads_the_plugin_once():
+    from viscera import _library
+    assert _library.load() == viscera.PLUGIN_LIBRARY  # idempotent: no second registration
+    assert "length" in viscera.attribute_names() and "pinned" in viscera.attribute_names()
+
+
+def test_dm_control_mjcf_builder_compiles_and_simulates():
+    from dm_control import mjcf
+    root = mjcf.RootElement(model="built")
+    root.worldbody.add("geom", type="plane", size=[2, 2, 0.1])
+    viscera.add_to_mjcf(root, "gut", length=1.0, control_points=30, shape="line", start=[0, 0, 0.2])
+    physics = mjcf.Physics.from_mjcf_model(root)
+    gut = viscera.intestine(physics.model.ptr, "gut")
+    assert gut.control_count == 30
+    while physics.data.time < 1.5:
+        physics.step()
+    assert abs(gut.positions(physics.data.ptr)[:, 2].mean() - 0.0125) < 1e-3  # fell and rests on the plane
+
+
+def test_default_scene_settles_on_the_plane():
+    model = mujoco.MjModel.from_xml_path(str(SCENE))
+    data = mujoco.MjData(model)
+    gut = viscera.intestine(model)
+    assert (gut.control_count, gut.rest_length) == (250, 4.0)
+    while data.time < 3.0:
+        mujoco.mj_step(model, data)
+    axis = gut.axis_points(data, 2000)
+    assert axis[:, 2].max() < 0.05  # everything came down from 0.3 m
+    assert axis[:, 2].min() > 0.0125 - 0.005  # and nothing went through the floor
+    assert abs(gut.length(data) - 4.0) < 0.04
+    assert gut.divergence_count(data) == 0
+
+
+def test_cli_runs_the_default_scene_and_renders(tmp_path):
+    png = tmp_path / "out.png"
+    result = subprocess.run([sys.executable, "-m", "viscera", "run", str(SCENE), "--duration", "0.5", "--quiet",
+                             "--png", str(png)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert result.returncode == 0, result.stderr
+    for words in ("simulated time   0.500 s", "real-time factor", "length", "lowest axis point"):
+        assert words in result.stdout, result.stdout
+    import matplotlib.image
+    image = matplotlib.image.imread(png)
+    assert image.shape[:2] == (600, 800)
+    assert image[..., :3].std() > 0.02  # a picture, not a blank frame
+    pink = (image[..., 0] > 0.7) & (image[..., 1] < 0.6) & (image[..., 2] < 0.6)
+    assert pink.sum() > 200  # the intestine is in it
+
+
+def test_cli_rejects_bad_duration(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "viscera", "run", str(SCENE), "--duration", "-1"],
+                            capture_output=True, text=True, cwd=tmp_path)
+    assert result.returncode != 0 and "--duration" in result.stderr
+
+
+def test_benchmark_runs_both_peers(tmp_path):
+    from viscera import bench
+    result = bench.run(duration=0.05, runs=1, quiet=True)
+    assert set(result["peers"]) == {"viscera", "flexcomp"}
+    for peer in result["peers"].values():
+        assert np.isfinite(peer["wall_s_per_sim_s_median"]) and peer["wall_s_per_sim_s_median"] > 0
