@@ -260,7 +260,10 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     mjvGeom* geom = scn->geoms + scn->ngeom;
     mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);
-    mjv_connector(geom, mjGEOM_CAPSULE, radius, it->rod->sample_xyz + 3 * a, it->rod->sample_xyz + 3 * a + 3);
+    const vsc_rod* rod = it->rod;
+    mjtNum from[3] = {rod->sample_x[a], rod->sample_y[a], rod->sample_z[a]};
+    mjtNum to[3] = {rod->sample_x[a + 1], rod->sample_y[a + 1], rod->sample_z[a + 1]};
+    mjv_connector(geom, mjGEOM_CAPSULE, radius, from, to);
     geom->category = mjCAT_DYNAMIC;
     scn->ngeom++;
   }

@@ -1,57 +1,50 @@
-// Band Cholesky factorisation and solves (layout in vsc_band.h).
+// Band LDL^T factorisation and solves (layout in vsc_band.h).
 #include "viscera/vsc_band.h"
-
-#include <math.h>
 
 #define A(i, j) band[VSC_BAND_WIDTH * (i) + 3 + (j) - (i)]
 
 vsc_status vsc_band_factor(double* band, int n) {
   for (int i = 0; i < n; ++i) {
     int j0 = i - 3 < 0 ? 0 : i - 3;
-    for (int j = j0; j <= i; ++j) {
+    // L(i, j) D(j) = A(i, j) - sum_k L(i, k) D(k) L(j, k); the diagonal holds 1 / D
+    for (int j = j0; j < i; ++j) {
       double sum = A(i, j);
-      for (int k = j0; k < j; ++k) sum -= A(i, k) * A(j, k);
-      if (j < i) {
-        A(i, j) = sum * A(j, j);  // diagonal already holds 1 / L(j, j)
-      } else {
-        if (!(sum > 0.0)) return VSC_ERROR_NOT_POSITIVE_DEFINITE;
-        A(i, i) = 1.0 / sqrt(sum);
-      }
+      for (int k = j0; k < j; ++k) sum -= A(i, k) * A(j, k) / A(k, k);
+      A(i, j) = sum * A(j, j);
     }
+    double pivot = A(i, i);
+    for (int k = j0; k < i; ++k) pivot -= A(i, k) * A(i, k) / A(k, k);
+    if (!(pivot > 0.0)) return VSC_ERROR_NOT_POSITIVE_DEFINITE;
+    A(i, i) = 1.0 / pivot;
   }
   return VSC_OK;
 }
 
 void vsc_band_solve3(const double* band, int n, double* x) {
-  // forward: L y = b
-  for (int i = 0; i < n; ++i) {
-    int k0 = i - 3 < 0 ? 0 : i - 3;
-    double s0 = x[3 * i], s1 = x[3 * i + 1], s2 = x[3 * i + 2];
-    for (int k = k0; k < i; ++k) {
-      double l = A(i, k);
-      s0 -= l * x[3 * k];
-      s1 -= l * x[3 * k + 1];
-      s2 -= l * x[3 * k + 2];
-    }
-    double inv = A(i, i);
-    x[3 * i] = s0 * inv;
-    x[3 * i + 1] = s1 * inv;
-    x[3 * i + 2] = s2 * inv;
+  // forward: L z = b (unit diagonal); rows 0..2 have fewer than 3 neighbours
+  for (int i = 0; i < n && i < 3; ++i)
+    for (int k = 0; k < i; ++k)
+      for (int c = 0; c < 3; ++c) x[3 * i + c] -= A(i, k) * x[3 * k + c];
+  for (int i = 3; i < n; ++i) {
+    const double* l = band + VSC_BAND_WIDTH * i;  // L(i, i-3), L(i, i-2), L(i, i-1)
+    double* xi = x + 3 * i;
+    for (int c = 0; c < 3; ++c) xi[c] -= l[0] * xi[c - 9] + l[1] * xi[c - 6] + l[2] * xi[c - 3];
   }
-  // backward: L^T x = y
-  for (int i = n - 1; i >= 0; --i) {
-    int k1 = i + 3 > n - 1 ? n - 1 : i + 3;
-    double s0 = x[3 * i], s1 = x[3 * i + 1], s2 = x[3 * i + 2];
-    for (int k = i + 1; k <= k1; ++k) {
-      double l = A(k, i);
-      s0 -= l * x[3 * k];
-      s1 -= l * x[3 * k + 1];
-      s2 -= l * x[3 * k + 2];
-    }
+  // diagonal: y = D^-1 z
+  for (int i = 0; i < n; ++i) {
     double inv = A(i, i);
-    x[3 * i] = s0 * inv;
-    x[3 * i + 1] = s1 * inv;
-    x[3 * i + 2] = s2 * inv;
+    x[3 * i] *= inv;
+    x[3 * i + 1] *= inv;
+    x[3 * i + 2] *= inv;
+  }
+  // backward: L^T x = y; rows n-3..n-1 have fewer than 3 neighbours
+  for (int i = n - 1; i >= 0 && i >= n - 3; --i)
+    for (int k = i + 1; k < n; ++k)
+      for (int c = 0; c < 3; ++c) x[3 * i + c] -= A(k, i) * x[3 * k + c];
+  for (int i = n - 4; i >= 0; --i) {
+    double l1 = A(i + 1, i), l2 = A(i + 2, i), l3 = A(i + 3, i);
+    double* xi = x + 3 * i;
+    for (int c = 0; c < 3; ++c) xi[c] -= l1 * xi[c + 3] + l2 * xi[c + 6] + l3 * xi[c + 9];
   }
 }
 

@@ -98,16 +98,37 @@ static vsc_status factor_mass(vsc_rod* rod) {
   return vsc_band_factor(rod->mass_factor, n);
 }
 
+// Transpose the sample basis: control point k depends on the consecutive
+// samples whose window [first, first + 3] contains k.
+static void build_gather(vsc_rod* rod) {
+  int n = rod->n, N = rod->sample_count, offset = 0;
+  rod->gather_count = rod->gather_first + n;
+  rod->gather_offset = rod->gather_first + 2 * n;
+  for (int k = 0; k < n; ++k) {
+    int a0 = 0;
+    while (rod->sample_basis[a0].first + VSC_SPLINE_SUPPORT - 1 < k) ++a0;
+    int a1 = a0;
+    while (a1 + 1 < N && rod->sample_basis[a1 + 1].first <= k) ++a1;
+    rod->gather_first[k] = a0;
+    rod->gather_count[k] = a1 - a0 + 1;
+    rod->gather_offset[k] = offset;
+    for (int a = a0; a <= a1; ++a) {
+      int i = k - rod->sample_basis[a].first;
+      rod->gather_weight[offset++] = (i >= 0 && i < VSC_SPLINE_SUPPORT) ? rod->sample_basis[a].weight[i] : 0.0;
+    }
+  }
+}
+
 vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   *out = NULL;
   vsc_status status = validate(def);
   if (status != VSC_OK) return status;
   vsc_rod* rod = (vsc_rod*)calloc(1, sizeof(vsc_rod));
   if (!rod) return VSC_ERROR_OUT_OF_MEMORY;
-  int n = def->control_count, spheres = def->collision_sphere_count;
+  int n = def->control_count, spheres = def->collision_sphere_count, S = def->samples_per_segment;
   rod->def = *def;
   rod->n = n;
-  rod->sample_count = (n - 1) * def->samples_per_segment + 1;
+  rod->sample_count = (n - 1) * S + 1;
   int N = rod->sample_count;
   rod->rest_spacing = def->length / (double)(N - 1);
   rod->stretch_spring = def->stretch_stiffness * (double)(N - 1);
@@ -119,17 +140,25 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->mass_row_sum = (double*)malloc(sizeof(double) * n);
   rod->pinned = (int*)malloc(sizeof(int) * (def->pinned_count > 0 ? def->pinned_count : 1));
   rod->is_pinned = (unsigned char*)calloc((size_t)n, 1);
-  rod->sample_xyz = (double*)malloc(sizeof(double) * 3 * N);
-  rod->sample_force = (double*)malloc(sizeof(double) * 3 * N);
+  rod->gather_first = (int*)malloc(sizeof(int) * 3 * (size_t)n);
+  // a control point touches at most 4 segments of S samples, plus the joint sample
+  rod->gather_weight = (double*)malloc(sizeof(double) * (size_t)n * (4 * (size_t)S + 1));
+  rod->scratch = (double*)malloc(sizeof(double) * 10 * (size_t)N);
   rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
   rod->sphere_velocity = (double*)calloc((size_t)(3 * spheres), sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
-      !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->sample_xyz ||
-      !rod->sample_force || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage) {
+      !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
+      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
+  double* block[10];
+  for (int i = 0; i < 10; ++i) block[i] = rod->scratch + (size_t)i * N;
+  rod->sample_x = block[0]; rod->sample_y = block[1]; rod->sample_z = block[2];
+  rod->force_x = block[3]; rod->force_y = block[4]; rod->force_z = block[5];
+  rod->edge_x = block[6]; rod->edge_y = block[7]; rod->edge_z = block[8];
+  rod->edge_length = block[9];
   for (int i = 0; i < def->pinned_count; ++i) {
     rod->pinned[i] = def->pinned[i];
     rod->is_pinned[def->pinned[i]] = 1;
@@ -138,6 +167,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
+  build_gather(rod);
   assemble_mass(rod);
   status = factor_mass(rod);
   if (status != VSC_OK) {
@@ -157,8 +187,9 @@ void vsc_rod_destroy(vsc_rod* rod) {
   free(rod->mass_row_sum);
   free(rod->pinned);
   free(rod->is_pinned);
-  free(rod->sample_xyz);
-  free(rod->sample_force);
+  free(rod->gather_first);
+  free(rod->gather_weight);
+  free(rod->scratch);
   free(rod->sphere_xyz);
   free(rod->sphere_velocity);
   free(rod->stage);
@@ -166,7 +197,15 @@ void vsc_rod_destroy(vsc_rod* rod) {
 }
 
 void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
-  for (int a = 0; a < rod->sample_count; ++a) vsc_basis_point(&rod->sample_basis[a], q, rod->sample_xyz + 3 * a);
+  double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  for (int a = 0; a < rod->sample_count; ++a) {
+    const vsc_basis* b = &rod->sample_basis[a];
+    const double* p = q + 3 * b->first;
+    double w0 = b->weight[0], w1 = b->weight[1], w2 = b->weight[2], w3 = b->weight[3];
+    x[a] = w0 * p[0] + w1 * p[3] + w2 * p[6] + w3 * p[9];
+    y[a] = w0 * p[1] + w1 * p[4] + w2 * p[7] + w3 * p[10];
+    z[a] = w0 * p[2] + w1 * p[5] + w2 * p[8] + w3 * p[11];
+  }
 }
 
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
@@ -177,65 +216,95 @@ void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
   }
 }
 
-static double distance3(const double* a, const double* b) {
-  double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-  return sqrt(dx * dx + dy * dy + dz * dz);
+// Vectors and lengths of the springs from sample a to a + gap (N - gap of
+// them) into edge_*; returns the sum of their lengths (m).
+static double spring_edges(vsc_rod* rod, int gap) {
+  int count = rod->sample_count - gap;
+  const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  double *ex = rod->edge_x, *ey = rod->edge_y, *ez = rod->edge_z, *el = rod->edge_length;
+  double total = 0.0;
+  for (int a = 0; a < count; ++a) {
+    ex[a] = x[a + gap] - x[a];
+    ey[a] = y[a + gap] - y[a];
+    ez[a] = z[a + gap] - z[a];
+    el[a] = sqrt(ex[a] * ex[a] + ey[a] * ey[a] + ez[a] * ez[a]);
+    total += el[a];
+  }
+  return total;
 }
 
-static double sample_length(const vsc_rod* rod) {
-  double total = 0.0;
-  for (int a = 0; a + 1 < rod->sample_count; ++a)
-    total += distance3(rod->sample_xyz + 3 * a, rod->sample_xyz + 3 * a + 3);
-  return total;
+// Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
+// (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
+static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
+  double *ex = rod->edge_x, *ey = rod->edge_y, *ez = rod->edge_z;
+  const double* el = rod->edge_length;
+  for (int a = 0; a < count; ++a) {
+    double scale = (k * (el[a] - rest) + extra) / (el[a] + 1e-300);
+    ex[a] *= scale;
+    ey[a] *= scale;
+    ez[a] *= scale;
+  }
+}
+
+// f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
+// and its last one back.
+static void add_spring_forces(vsc_rod* rod, int gap) {
+  int N = rod->sample_count, count = N - gap;
+  const double *tx = rod->edge_x, *ty = rod->edge_y, *tz = rod->edge_z;
+  double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  for (int a = 0; a < count; ++a) {
+    fx[a] += tx[a];
+    fy[a] += ty[a];
+    fz[a] += tz[a];
+  }
+  for (int a = gap; a < N; ++a) {
+    fx[a] -= tx[a - gap];
+    fy[a] -= ty[a - gap];
+    fz[a] -= tz[a - gap];
+  }
+}
+
+// Elastic sample forces -dE/dp into force_* (samples must be current).
+static void elastic_sample_forces(vsc_rod* rod) {
+  int N = rod->sample_count;
+  memset(rod->force_x, 0, sizeof(double) * N);
+  memset(rod->force_y, 0, sizeof(double) * N);
+  memset(rod->force_z, 0, sizeof(double) * N);
+  // stretch springs and the global term: dE_g/dl = K_g (l - length) is a
+  // tension shared by every stretch spring
+  double length = spring_edges(rod, 1);
+  double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
+  spring_tensions(rod, N - 1, rod->stretch_spring, rod->rest_spacing, global_tension);
+  add_spring_forces(rod, 1);
+  if (rod->bend_spring > 0.0 && N > 2) {
+    spring_edges(rod, 2);
+    spring_tensions(rod, N - 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
+    add_spring_forces(rod, 2);
+  }
+}
+
+// Virtual work as a gather: Q_k += sum over samples a of b_k(s_a) F_a, each
+// control point reading its own contiguous range of samples.
+static void gather_to_control(const vsc_rod* rod, double* Q) {
+  const double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  for (int k = 0; k < rod->n; ++k) {
+    int a0 = rod->gather_first[k], count = rod->gather_count[k];
+    const double* w = rod->gather_weight + rod->gather_offset[k];
+    double sx = 0.0, sy = 0.0, sz = 0.0;
+    for (int i = 0; i < count; ++i) {
+      sx += w[i] * fx[a0 + i];
+      sy += w[i] * fy[a0 + i];
+      sz += w[i] * fz[a0 + i];
+    }
+    Q[3 * k] += sx;
+    Q[3 * k + 1] += sy;
+    Q[3 * k + 2] += sz;
+  }
 }
 
 double vsc_rod_length(vsc_rod* rod, const double* q) {
   vsc_rod_update_samples(rod, q);
-  return sample_length(rod);
-}
-
-// Spring between samples a and a + gap with tension `tension` (N, positive when
-// stretched): force +T e on a, -T e on a + gap, e the unit vector from a to a + gap.
-static void add_spring_force(double* f, const double* x, int a, int gap, double tension_of_length_k,
-                             double rest, double extra_tension) {
-  const double* pa = x + 3 * a;
-  const double* pb = x + 3 * (a + gap);
-  double e[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
-  double l = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
-  double scale = l > 0.0 ? (tension_of_length_k * (l - rest) + extra_tension) / l : 0.0;
-  for (int c = 0; c < 3; ++c) {
-    f[3 * a + c] += scale * e[c];
-    f[3 * (a + gap) + c] -= scale * e[c];
-  }
-}
-
-// Elastic sample forces -dE/dp into rod->sample_force (samples must be current).
-static void elastic_sample_forces(vsc_rod* rod) {
-  int N = rod->sample_count;
-  double* f = rod->sample_force;
-  const double* x = rod->sample_xyz;
-  memset(f, 0, sizeof(double) * 3 * N);
-  double global_tension = 0.0;  // dE_g/dl = K_g (l - length), shared by every stretch spring
-  if (rod->def.global_stretch_stiffness > 0.0)
-    global_tension = rod->def.global_stretch_stiffness * (sample_length(rod) - rod->def.length);
-  if (rod->stretch_spring > 0.0 || global_tension != 0.0)
-    for (int a = 0; a + 1 < N; ++a) add_spring_force(f, x, a, 1, rod->stretch_spring, rod->rest_spacing, global_tension);
-  if (rod->bend_spring > 0.0)
-    for (int a = 0; a + 2 < N; ++a) add_spring_force(f, x, a, 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
-}
-
-// Virtual work: Q_k += sum over samples a of b_k(s_a) F_a.
-static void transpose_to_control(const vsc_basis* basis, int count, const double* f, double* Q) {
-  for (int a = 0; a < count; ++a) {
-    const vsc_basis* b = &basis[a];
-    double* out = Q + 3 * b->first;
-    for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i) {
-      double w = b->weight[i];
-      out[3 * i] += w * f[3 * a];
-      out[3 * i + 1] += w * f[3 * a + 1];
-      out[3 * i + 2] += w * f[3 * a + 2];
-    }
-  }
+  return spring_edges(rod, 1);
 }
 
 void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
@@ -249,7 +318,7 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
   }
   vsc_rod_update_samples(rod, q);
   elastic_sample_forces(rod);
-  transpose_to_control(rod->sample_basis, rod->sample_count, rod->sample_force, Q);
+  gather_to_control(rod, Q);
   if (world->geom_count > 0) {
     vsc_rod_update_spheres(rod, q, v);
     vsc_rod_contact_forces(rod, world, Q, geom_wrench);
@@ -273,18 +342,20 @@ void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q,
 double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
   vsc_rod_update_samples(rod, q);
   int N = rod->sample_count;
-  const double* x = rod->sample_xyz;
-  double e = 0.0;
+  double e = 0.0, dl = spring_edges(rod, 1) - rod->def.length;
   for (int a = 0; a + 1 < N; ++a) {
-    double d = distance3(x + 3 * a, x + 3 * a + 3) - rod->rest_spacing;
+    double d = rod->edge_length[a] - rod->rest_spacing;
     e += 0.5 * rod->stretch_spring * d * d;
   }
-  for (int a = 0; a + 2 < N; ++a) {
-    double d = distance3(x + 3 * a, x + 3 * a + 6) - 2.0 * rod->rest_spacing;
-    e += 0.5 * rod->bend_spring * d * d;
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl;
+  if (N > 2) {
+    spring_edges(rod, 2);
+    for (int a = 0; a + 2 < N; ++a) {
+      double d = rod->edge_length[a] - 2.0 * rod->rest_spacing;
+      e += 0.5 * rod->bend_spring * d * d;
+    }
   }
-  double dl = sample_length(rod) - rod->def.length;
-  return e + 0.5 * rod->def.global_stretch_stiffness * dl * dl;
+  return e;
 }
 
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {

@@ -4,9 +4,10 @@
 // Storage (n x 4, row-major, caller-owned): row i holds the lower band
 //   band[4 i + d] = A(i, i - 3 + d),  d = 0..3,  so band[4 i + 3] is the diagonal.
 // Entries with column i - 3 + d < 0 are ignored (keep them zero).
-// vsc_band_factor overwrites the band with its Cholesky factor L (A = L L^T) in
-// the same layout, except that the diagonal holds 1 / L(i, i) so that solves
-// multiply instead of divide. Factor O(n), solve O(n).
+// vsc_band_factor overwrites the band with its LDL^T factors (A = L D L^T, L
+// unit lower triangular) in the same layout: band[4 i + d] = L(i, i - 3 + d)
+// for d < 3 and band[4 i + 3] = 1 / D(i). With a unit diagonal each sweep of a
+// solve is a bare multiply-subtract recurrence. Factor O(n), solve O(n).
 #ifndef VISCERA_VSC_BAND_H
 #define VISCERA_VSC_BAND_H
 
@@ -15,8 +16,8 @@
 /// Number of stored entries per row.
 #define VSC_BAND_WIDTH 4
 
-/// In-place Cholesky factorisation of an n x n band matrix (layout above).
-/// Returns VSC_ERROR_NOT_POSITIVE_DEFINITE if a pivot is not positive.
+/// In-place LDL^T factorisation of an n x n band matrix (layout above).
+/// Returns VSC_ERROR_NOT_POSITIVE_DEFINITE if a pivot D(i) is not positive.
 vsc_status vsc_band_factor(double* band, int n);
 
 /// Solve A x = b in place for three right-hand sides stored interleaved

@@ -67,12 +67,26 @@ typedef struct vsc_rod {
   double* mass_row_sum;      ///< sum_j M_kj, the gravity weights (n) (kg)
   int* pinned;               ///< pinned indices (pinned_count)
   unsigned char* is_pinned;  ///< 1 where control point k is pinned (n)
-  // scratch, overwritten by every evaluation
-  double* sample_xyz;        ///< sample positions (3N) (m)
-  double* sample_force;      ///< forces on samples (3N) (N)
+  int* gather_first;         ///< first sample that control point k depends on (n)
+  int* gather_count;         ///< number of consecutive samples it depends on (n)
+  int* gather_offset;        ///< start of its weights in gather_weight (n)
+  double* gather_weight;     ///< b_k(s_a) for those samples: the transpose of sample_basis
+  // scratch, overwritten by every evaluation; structure of arrays so the
+  // spring loops vectorise
+  double* sample_x;          ///< sample positions (N each) (m)
+  double* sample_y;
+  double* sample_z;
+  double* force_x;           ///< elastic forces on samples (N each) (N)
+  double* force_y;
+  double* force_z;
+  double* edge_x;            ///< spring vectors, then tension vectors (N each)
+  double* edge_y;
+  double* edge_z;
+  double* edge_length;       ///< spring lengths (N) (m)
   double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
   double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
   double* stage;             ///< integrator stages (8 x 3n)
+  double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
 } vsc_rod;
 
 /// Validate `def` and build a rod. On success *out owns a new rod (release
@@ -114,7 +128,7 @@ double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
 /// Length of the axis (m), as the sum of the sample spacings.
 double vsc_rod_length(vsc_rod* rod, const double* q);
 
-/// Sample positions into rod->sample_xyz.
+/// Sample positions into rod->sample_x, sample_y, sample_z.
 void vsc_rod_update_samples(vsc_rod* rod, const double* q);
 
 /// Collision sphere centres and velocities into rod->sphere_xyz / sphere_velocity
