@@ -44,8 +44,9 @@ static const char* raw(reader* r, const char* key) {
   return *value ? value : NULL;
 }
 
-// Parse whitespace-separated finite numbers into out (capacity `capacity`).
-// Returns the count, or -1 if a token is not a finite number.
+// Parse whitespace-separated finite numbers into out (capacity `capacity`;
+// out may be NULL to count only). Returns the count, -1 if a token is not a
+// finite number, -2 if there are more than `capacity`.
 static int parse_numbers(const char* text, double* out, int capacity) {
   int count = 0;
   const char* p = text;
@@ -58,7 +59,8 @@ static int parse_numbers(const char* text, double* out, int capacity) {
     if (end == p || errno == ERANGE || !isfinite(x)) return -1;
     if (*end && *end != ' ' && *end != '\t' && *end != '\n' && *end != '\r') return -1;
     if (count >= capacity) return -2;
-    out[count++] = x;
+    if (out) out[count] = x;
+    ++count;
     p = end;
   }
 }
@@ -183,10 +185,11 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
   const char* points = raw(r, "points");
   if (c->shape == VSC_SHAPE_POLYLINE) {
     if (!points) return fail(r, "attribute 'points' is required by shape 'polyline' (3k numbers, m)");
-    c->points = (double*)malloc(sizeof(double) * MAX_NUMBERS);
-    if (!c->points) return fail(r, "out of memory reading 'points'");
-    int got = parse_numbers(points, c->points, MAX_NUMBERS);
+    int got = parse_numbers(points, NULL, MAX_NUMBERS);
     if (got < 0) return fail(r, "attribute 'points' must be finite numbers (at most %d)", MAX_NUMBERS);
+    c->points = (double*)malloc(sizeof(double) * (size_t)(got > 0 ? got : 1));
+    if (!c->points) return fail(r, "out of memory reading 'points'");
+    parse_numbers(points, c->points, got);
     if (got % 3 != 0 || got < 6)
       return fail(r, "attribute 'points' holds %d numbers: a polyline needs at least 2 points of 3 numbers", got);
     c->point_count = got / 3;

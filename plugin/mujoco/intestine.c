@@ -12,6 +12,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "cache_registry.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
 
@@ -104,10 +105,12 @@ static void write_initial_state(const intestine* it, mjtNum* state) {
   memset(state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
 }
 
-// The caches of this data, rebuilt if the data is stepped with another model
-// (multi-model rollouts). NULL only if the rebuild fails.
+// The caches of this data, from the registry (never from d->plugin_data, which
+// a pickled copy shares with its original), built on first use by a copy and
+// rebuilt if the data is stepped with another model (multi-model rollouts).
+// NULL only if building fails.
 static intestine* caches(const mjModel* m, mjData* d, int instance) {
-  intestine* it = (intestine*)d->plugin_data[instance];
+  intestine* it = (intestine*)vsc_registry_find(d, instance);
   if (it && it->model == m) return it;
   char error[ERROR_SIZE];
   intestine* fresh = intestine_create(m, instance, error);
@@ -115,14 +118,20 @@ static intestine* caches(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return NULL;
   }
-  if (it && it->config.rod.control_count != fresh->config.rod.control_count) {
-    mju_warning("viscera.intestine: model has %d control points, data was made for %d; not stepped",
-                fresh->config.rod.control_count, it->config.rod.control_count);
+  int expected = (m->plugin_statenum[instance] - 1) / 6;
+  if (fresh->config.rod.control_count != expected) {
+    mju_warning("viscera.intestine: model config has %d control points, its state %d; not stepped",
+                fresh->config.rod.control_count, expected);
     intestine_free(fresh);
     return NULL;
   }
-  intestine_free(it);
-  d->plugin_data[instance] = (uintptr_t)fresh;
+  void* replaced = vsc_registry_insert(d, instance, fresh);
+  if (replaced == fresh) {  // registry out of memory
+    intestine_free(fresh);
+    return NULL;
+  }
+  intestine_free((intestine*)replaced);
+  d->plugin_data[instance] = (uintptr_t)fresh;  // informative only
   return fresh;
 }
 
@@ -182,19 +191,33 @@ static int intestine_init(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return -1;
   }
+  void* replaced = vsc_registry_insert(d, instance, it);
+  if (replaced == it) {
+    intestine_free(it);
+    mju_warning("viscera.intestine: out of memory");
+    return -1;
+  }
+  intestine_free((intestine*)replaced);  // a stale entry of a freed mjData at this address
   d->plugin_data[instance] = (uintptr_t)it;
   write_initial_state(it, d->plugin_state + m->plugin_stateadr[instance]);
   return 0;
 }
 
 static void intestine_destroy(mjData* d, int instance) {
-  intestine_free((intestine*)d->plugin_data[instance]);
+  intestine_free((intestine*)vsc_registry_remove(d, instance));
   d->plugin_data[instance] = 0;
 }
 
+// plugin_data may be a pointer a pickled copy shares with its original: the
+// initial shape is recomputed from the config rather than read through it.
 static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-  intestine* it = (intestine*)plugin_data;
-  if (it) write_initial_state(it, plugin_state);
+  vsc_plugin_config config;
+  char error[ERROR_SIZE];
+  if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) return;  // checked at load
+  int n = config.rod.control_count;
+  if (vsc_plugin_config_layout(&config, plugin_state, error, ERROR_SIZE) == 0)
+    memset(plugin_state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
+  vsc_plugin_config_free(&config);
 }
 
 // Reaction of the intestine on the MuJoCo bodies it touches, into qfrc_passive.

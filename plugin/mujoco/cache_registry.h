@@ -1,0 +1,23 @@
+// Ownership of the plugin's per-mjData caches, keyed by (mjData address, instance).
+//
+// Why not d->plugin_data alone: pickling an MjData (or a dm_control Physics)
+// copies the raw plugin_data pointer into the copy, so two datas would share,
+// and both free, one cache; a pickle loaded in another process carries a
+// pointer into a foreign address space. The registry is the only owner: the
+// plugin never dereferences plugin_data, and each mjData gets its own cache.
+// Thread-safe (one mutex); holds no simulation state.
+#ifndef VISCERA_PLUGIN_CACHE_REGISTRY_H
+#define VISCERA_PLUGIN_CACHE_REGISTRY_H
+
+/// The cache registered for (data, instance), or NULL.
+void* vsc_registry_find(const void* data, int instance);
+
+/// Register `cache` for (data, instance); returns the cache it replaces (or
+/// NULL), which the caller frees. Returns `cache` itself if memory ran out
+/// (nothing was registered; the caller keeps ownership).
+void* vsc_registry_insert(const void* data, int instance, void* cache);
+
+/// Unregister (data, instance) and return its cache (or NULL) for the caller to free.
+void* vsc_registry_remove(const void* data, int instance);
+
+#endif  // VISCERA_PLUGIN_CACHE_REGISTRY_H

@@ -1,0 +1,68 @@
+"""Pickled and deep-copied data carry the intestine and never share its caches.
+
+Pickling copies MuJoCo's raw plugin_data pointer into the copy; the plugin must
+neither double-free it at exit nor read through it. Each case runs in a fresh
+interpreter so that a crash (abort at exit) fails the test instead of pytest.
+"""
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+PRELUDE = """
+import copy, pickle, mujoco, numpy as np, viscera
+xml = '<mujoco><worldbody><geom type="plane" size="2 2 .1"/></worldbody>' + viscera.extension_xml(
+    'g', length=1, control_points=20, shape='line', start=[0, 0, 0.3]) + '</mujoco>'
+m = mujoco.MjModel.from_xml_string(xml)
+d = mujoco.MjData(m)
+gut = viscera.intestine(m)
+def step(data, count):
+    for _ in range(count):
+        mujoco.mj_step(m, data)
+step(d, 50)
+"""
+
+CASES = {
+    "copy_deleted_first": """
+        c = pickle.loads(pickle.dumps(d))
+        step(c, 30); step(d, 30)
+        assert np.array_equal(gut.positions(c), gut.positions(d))
+        del c
+        step(d, 30)
+        assert np.isfinite(gut.positions(d)).all()
+    """,
+    "original_deleted_first": """
+        c = pickle.loads(pickle.dumps(d))
+        reference = mujoco.MjData(m); mujoco.mj_copyData(reference, m, d)
+        del d
+        step(c, 30); step(reference, 30)
+        assert np.array_equal(gut.positions(c), gut.positions(reference))
+        mujoco.mj_resetData(m, c)
+        assert np.allclose(gut.positions(c)[0], [0, 0, 0.3])
+    """,
+    "deepcopy_and_dm_control_physics": """
+        from dm_control import mujoco as dm_mujoco
+        c = copy.deepcopy(d)
+        step(c, 10)
+        physics = dm_mujoco.Physics.from_xml_string(xml)
+        for _ in range(20): physics.step()
+        twin = pickle.loads(pickle.dumps(physics))
+        for _ in range(20): physics.step(); twin.step()
+        assert np.array_equal(viscera.intestine(physics.model.ptr).positions(physics.data.ptr),
+                              viscera.intestine(twin.model.ptr).positions(twin.data.ptr))
+        del physics
+        twin.reset()
+        for _ in range(5): twin.step()
+    """,
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_copies_run_independently_and_exit_cleanly(case):
+    code = PRELUDE + textwrap.dedent(CASES[case]) + "\nprint('clean')\n"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, f"exit {result.returncode}\n{result.stdout}\n{result.stderr}"
+    assert "clean" in result.stdout
+    assert "not stepped" not in result.stdout + result.stderr
