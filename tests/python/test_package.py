@@ -73,3 +73,11 @@ def test_benchmark_runs_both_peers(tmp_path):
     assert set(result["peers"]) == {"viscera", "flexcomp"}
     for peer in result["peers"].values():
         assert np.isfinite(peer["wall_s_per_sim_s_median"]) and peer["wall_s_per_sim_s_median"] > 0
+
+
+def test_dm_control_render_shows_the_intestine():
+    from dm_control import mujoco as dm_mujoco
+    physics = dm_mujoco.Physics.from_xml_path(str(SCENE))
+    image = physics.render(height=240, width=320, camera_id="overview")
+    pink = (image[..., 0] > 180) & (image[..., 1] < 150) & (image[..., 2] < 150)
+    assert pink.sum() > 100  # the plugin's visualize callback drew it
