@@ -23,3 +23,24 @@ VSC_EXPORT void viscera_spline_basis(int n, int count, const double* s, int* fir
     for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) weight[4 * i + j] = b.weight[j];
   }
 }
+
+/// Resolved mechanics of intestine `instance` of model `m`, defaults applied,
+/// as the plugin itself reads them: out = {length (m), radius (m), mass (kg),
+/// control points, collision spheres, samples per segment}. Returns 0, or -1
+/// if the instance is not a viscera.intestine.
+VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out[6]) {
+  vsc_plugin_config config;
+  char error[256];
+  int slot = -1;
+  if (instance < 0 || instance >= m->nplugin) return -1;
+  if (!mjp_getPlugin("viscera.intestine", &slot) || m->plugin[instance] != slot) return -1;
+  if (vsc_plugin_config_read(m, instance, &config, error, (int)sizeof(error))) return -1;
+  out[0] = config.rod.length;
+  out[1] = config.rod.radius;
+  out[2] = config.rod.mass;
+  out[3] = config.rod.control_count;
+  out[4] = config.rod.collision_sphere_count;
+  out[5] = config.rod.samples_per_segment;
+  vsc_plugin_config_free(&config);
+  return 0;
+}

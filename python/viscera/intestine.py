@@ -41,6 +41,14 @@ def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarr
     return np.einsum("kj,kjc->kc", weight, window)
 
 
+def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
+    """Length, radius, mass, control points, spheres, samples per segment, as the plugin reads them."""
+    out = np.zeros(6)
+    status = _library.native().viscera_intestine_info(
+        ctypes.c_void_p(model._address), instance, out.ctypes.data_as(ctypes.c_void_p))
+    return out if status == 0 else None
+
+
 @dataclasses.dataclass(frozen=True)
 class Intestine:
     """One viscera.intestine instance of a compiled model: config and state accessors."""
@@ -48,28 +56,13 @@ class Intestine:
     model: mujoco.MjModel
     instance: int
     name: str
-    config: Mapping[str, str]
-
-    @property
-    def control_count(self) -> int:
-        return (int(self.model.plugin_statenum[self.instance]) - 1) // 6
-
-    @property
-    def rest_length(self) -> float:
-        """Rest length of the axis (m)."""
-        return float(self.config.get("length") or 4.0)
-
-    @property
-    def radius(self) -> float:
-        """Tube radius used by contacts (m)."""
-        return float(self.config.get("radius") or 0.0125)
-
-    @property
-    def sphere_count(self) -> int:
-        given = self.config.get("collision_spheres")
-        if given:
-            return int(given)
-        return int(np.ceil(self.rest_length / (2.0 * self.radius) - 1e-9)) + 1
+    config: Mapping[str, str]  # the attributes given in the MJCF, as strings
+    rest_length: float         # m, defaults applied
+    radius: float              # m, tube and collision sphere radius
+    mass: float                # kg
+    control_count: int
+    sphere_count: int
+    samples_per_segment: int
 
     def _state(self, data: mujoco.MjData) -> np.ndarray:
         start = int(self.model.plugin_stateadr[self.instance])
@@ -109,15 +102,17 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
     found = []
     raw = bytes(model.plugin_attr)
     for instance in range(model.nplugin):
-        # MuJoCo stores each instance's values NUL-terminated, in attribute order.
+        info = _info(model, instance)
+        if info is None:
+            continue  # another plugin's instance
+        # MuJoCo stores each instance's values NUL-terminated, in attribute order
         start = int(model.plugin_attradr[instance])
         values = raw[start:].split(b"\0")[:len(names)]
-        statenum = int(model.plugin_statenum[instance])
-        if len(values) < len(names) or statenum < 25 or (statenum - 1) % 6:
-            continue
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, instance) or f"intestine{instance}"
         config = {key: value.decode() for key, value in zip(names, values) if value}
-        found.append(Intestine(model, instance, name, config))
+        found.append(Intestine(model, instance, name, config, rest_length=float(info[0]), radius=float(info[1]),
+                               mass=float(info[2]), control_count=int(info[3]), sphere_count=int(info[4]),
+                               samples_per_segment=int(info[5])))
     return found
 
 

@@ -6,6 +6,7 @@ import sys
 
 import mujoco
 import numpy as np
+import pytest
 
 import viscera
 
@@ -81,3 +82,23 @@ def test_dm_control_render_shows_the_intestine():
     image = physics.render(height=240, width=320, camera_id="overview")
     pink = (image[..., 0] > 180) & (image[..., 1] < 150) & (image[..., 2] < 150)
     assert pink.sum() > 100  # the plugin's visualize callback drew it
+
+
+def test_intestines_skips_other_plugins_and_reports_resolved_defaults():
+    xml = f"""<mujoco>
+      <extension><plugin plugin="mujoco.elasticity.cable"/></extension>
+      {viscera.extension_xml("gut", length=2.0, density=900)}
+      <worldbody>
+        <composite type="cable" curve="s" count="6 1 1" size="1" initial="none">
+          <plugin plugin="mujoco.elasticity.cable"><config key="twist" value="1e6"/><config key="bend" value="1e9"/></plugin>
+          <joint kind="main" damping=".015"/><geom type="capsule" size=".005" density="1"/>
+        </composite>
+      </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert model.nplugin >= 2
+    guts = viscera.intestines(model)
+    assert [g.name for g in guts] == ["gut"]
+    gut = guts[0]
+    assert (gut.rest_length, gut.radius, gut.control_count, gut.samples_per_segment) == (2.0, 0.0125, 250, 2)
+    assert gut.sphere_count == 81
+    assert gut.mass == pytest.approx(900 * np.pi * 0.0125**2 * 2.0)
