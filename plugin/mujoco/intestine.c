@@ -32,6 +32,7 @@ typedef struct intestine {
   int geom_count;
   double* geom_wrench;    // reaction on each geom (6 x geom_count)
   double* scratch;        // generalised forces (3n)
+  int warned_passive_off; // the passive-off warning was given for this data
 } intestine;
 
 static vsc_geom_type geom_type(int mujoco_type, int* supported) {
@@ -257,6 +258,13 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     return;
   }
   vsc_world world = {{0, 0, 0}, it->geoms, contacts_enabled(m) ? it->geom_count : 0};
+  int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
+  if (passive_off && world.geom_count > 0 && !it->warned_passive_off) {
+    // mj_passive returns before plugin compute when both are off
+    it->warned_passive_off = 1;
+    mju_warning("viscera.intestine: MuJoCo's spring and damper flags are both disabled, so bodies do not "
+                "feel the intestine (it still feels them); enable either flag");
+  }
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
     for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
   if (world.geom_count > 0) update_geoms(m, d, it);

@@ -41,3 +41,16 @@ def test_disabled_contacts_are_respected():
     while data.time < 0.5:
         mujoco.mj_step(model, data)
     assert gut.positions(data)[:, 2].max() < 0.0
+
+
+def test_passive_forces_disabled_is_reported_once(capfd, caplog):
+    """With both spring and damper disabled MuJoCo skips plugin compute: say so, once."""
+    model, data, gut = compile_scene('<geom type="plane" size="2 2 .1"/>',
+                                     options='timestep="0.002"><flag spring="disable" damper="disable"/></option><option',
+                                     length=0.4, control_points=30, shape="line", start=[-0.2, 0, 0.05])
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    printed = capfd.readouterr()
+    text = printed.out + printed.err + caplog.text
+    assert text.count("spring and damper flags are both disabled") == 1
+    assert gut.positions(data)[:, 2].min() > 0.0  # the intestine itself still rests on the plane
