@@ -91,7 +91,7 @@ static int read_nonnegative(reader* r, const char* key, double fallback, double*
   return 0;
 }
 
-static int read_count(reader* r, const char* key, int fallback, int minimum, int* out) {
+static int read_count(reader* r, const char* key, int fallback, int minimum, int maximum, int* out) {
   const char* text = raw(r, key);
   if (!text) {
     *out = fallback;
@@ -101,9 +101,9 @@ static int read_count(reader* r, const char* key, int fallback, int minimum, int
   errno = 0;
   long x = strtol(text, &end, 10);
   while (end && (*end == ' ' || *end == '\t' || *end == '\n')) ++end;
-  if (end == text || *end || errno == ERANGE || x > 100000000L)
-    return fail(r, "attribute '%s' = '%s' is not an integer", key, text);
+  if (end == text || *end || errno == ERANGE) return fail(r, "attribute '%s' = '%s' is not an integer", key, text);
   if (x < minimum) return fail(r, "attribute '%s' = '%s' must be at least %d", key, text, minimum);
+  if (x > maximum) return fail(r, "attribute '%s' = '%s' must be at most %d", key, text, maximum);
   *out = (int)x;
   return 0;
 }
@@ -128,9 +128,14 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
   c->rod.pinned = NULL;
   c->rod.pinned_count = 0;
   if (!text) return 0;
-  int n = c->rod.control_count, capacity = n;
-  c->pinned = (int*)malloc(sizeof(int) * (size_t)capacity);
-  if (!c->pinned) return fail(r, "out of memory reading 'pinned'");
+  int n = c->rod.control_count;
+  c->pinned = (int*)malloc(sizeof(int) * (size_t)n);
+  unsigned char* seen = (unsigned char*)calloc((size_t)n, 1);
+  if (!c->pinned || !seen) {
+    free(seen);
+    return fail(r, "out of memory reading 'pinned'");
+  }
+  int status = 0;
   const char* p = text;
   for (;;) {
     while (*p == ' ' || *p == '\t' || *p == '\n') ++p;
@@ -138,17 +143,21 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
     char* end = NULL;
     errno = 0;
     long k = strtol(p, &end, 10);
-    if (end == p || (*end && *end != ' ' && *end != '\t' && *end != '\n') || errno == ERANGE)
-      return fail(r, "attribute 'pinned' = '%s' must be control point indices (integers)", text);
-    if (k < 0 || k >= n)
-      return fail(r, "attribute 'pinned' = '%s': index %ld is out of range [0, %d]", text, k, n - 1);
-    int seen = 0;
-    for (int i = 0; i < c->rod.pinned_count; ++i) seen |= c->pinned[i] == (int)k;
-    if (!seen) c->pinned[c->rod.pinned_count++] = (int)k;
+    if (end == p || (*end && *end != ' ' && *end != '\t' && *end != '\n') || errno == ERANGE) {
+      status = fail(r, "attribute 'pinned' = '%s' must be control point indices (integers)", text);
+      break;
+    }
+    if (k < 0 || k >= n) {
+      status = fail(r, "attribute 'pinned' = '%s': index %ld is out of range [0, %d]", text, k, n - 1);
+      break;
+    }
+    if (!seen[k]) c->pinned[c->rod.pinned_count++] = (int)k;  // duplicates are harmless
+    seen[k] = 1;
     p = end;
   }
+  free(seen);
   c->rod.pinned = c->pinned;
-  return 0;
+  return status;
 }
 
 static int read_shape(reader* r, vsc_plugin_config* c) {
@@ -204,10 +213,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   vsc_rod_def* d = &c->rod;
   int failed =
       read_positive(&r, "length", d->length, &d->length, "m") ||
-      read_count(&r, "control_points", d->control_count, 4, &d->control_count) ||
+      read_count(&r, "control_points", d->control_count, 4, VSC_MAX_CONTROL_POINTS, &d->control_count) ||
       read_positive(&r, "radius", d->radius, &d->radius, "m") ||
-      read_count(&r, "samples_per_segment", d->samples_per_segment, 1, &d->samples_per_segment);
+      read_count(&r, "samples_per_segment", d->samples_per_segment, 1, 64, &d->samples_per_segment);
   if (failed) return -1;
+  if ((double)(d->control_count - 1) * d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
+    return fail(&r, "attributes 'control_points' = %d and 'samples_per_segment' = %d give more than %d samples",
+                d->control_count, d->samples_per_segment, VSC_MAX_SAMPLES);
   // mass: given, or from the density of a full tube of the contact radius
   double density = 1000.0;
   int mass_given = 0, density_given = 0;
@@ -218,6 +230,9 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (!mass_given) {
     if (!(density > 0.0)) return fail(&r, "attribute 'density' = '%s' must be positive (kg/m^3)", raw(&r, "density"));
     d->mass = density * VSC_PI * d->radius * d->radius * d->length;
+    if (!isfinite(d->mass))
+      return fail(&r, "attribute 'density' = '%g' with 'radius' = '%g' and 'length' = '%g' gives a non-finite mass",
+                  density, d->radius, d->length);
   }
   failed =
       read_positive(&r, "radius_max", d->radius, &c->radius_max, "m") ||
@@ -228,10 +243,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
       read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
       read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
-      read_count(&r, "substeps", 2, 1, &c->substeps) ||
+      read_count(&r, "substeps", 2, 1, 10000, &c->substeps) ||
       read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
-                 &d->collision_sphere_count);
+                 VSC_MAX_COLLISION_SPHERES, &d->collision_sphere_count);
   if (failed) return -1;
+  if (d->collision_sphere_count < 2)  // the default overflowed
+    return fail(&r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
+                "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
   if (c->radius_min > c->radius_max)
     return fail(&r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->radius_min, c->radius_max);
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)

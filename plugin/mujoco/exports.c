@@ -15,13 +15,16 @@ VSC_EXPORT const char* viscera_attribute_name(int i) {
 }
 
 /// Basis windows of `count` abscissae s (in [0, 1]) of an n-point spline:
-/// first[i] and weight[4 i .. 4 i + 3], as in vsc_spline_basis.
-VSC_EXPORT void viscera_spline_basis(int n, int count, const double* s, int* first, double* weight) {
+/// first[i] and weight[4 i .. 4 i + 3], as in vsc_spline_basis (a NaN s reads
+/// as 0). Returns 0, or -1 if n < 4.
+VSC_EXPORT int viscera_spline_basis(int n, int count, const double* s, int* first, double* weight) {
+  if (n < 4) return -1;
   for (int i = 0; i < count; ++i) {
     vsc_basis b = vsc_spline_basis(n, s[i]);
     first[i] = b.first;
     for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) weight[4 * i + j] = b.weight[j];
   }
+  return 0;
 }
 
 /// Resolved mechanics of intestine `instance` of model `m`, defaults applied,

@@ -119,10 +119,9 @@ static intestine* caches(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return NULL;
   }
-  int expected = (m->plugin_statenum[instance] - 1) / 6;
-  if (fresh->config.rod.control_count != expected) {
-    mju_warning("viscera.intestine: model config has %d control points, its state %d; not stepped",
-                fresh->config.rod.control_count, expected);
+  if (m->plugin_statenum[instance] != state_size(fresh->config.rod.control_count)) {
+    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d; not stepped",
+                m->plugin_statenum[instance], state_size(fresh->config.rod.control_count));
     intestine_free(fresh);
     return NULL;
   }
@@ -192,6 +191,13 @@ static int intestine_init(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return -1;
   }
+  if (m->plugin_statenum[instance] != state_size(it->config.rod.control_count)) {
+    // e.g. an MJB saved with another config: writing the state would overflow it
+    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d",
+                m->plugin_statenum[instance], state_size(it->config.rod.control_count));
+    intestine_free(it);
+    return -1;
+  }
   void* replaced = vsc_registry_insert(d, instance, it);
   if (replaced == it) {
     intestine_free(it);
@@ -216,7 +222,8 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
   char error[ERROR_SIZE];
   if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) return;  // checked at load
   int n = config.rod.control_count;
-  if (vsc_plugin_config_layout(&config, plugin_state, error, ERROR_SIZE) == 0)
+  if (m->plugin_statenum[instance] == state_size(n) &&
+      vsc_plugin_config_layout(&config, plugin_state, error, ERROR_SIZE) == 0)
     memset(plugin_state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
   vsc_plugin_config_free(&config);
 }

@@ -42,7 +42,7 @@ def load() -> pathlib.Path:
             _ctypes_library = ctypes.CDLL(str(path))
             _ctypes_library.viscera_attribute_name.restype = ctypes.c_char_p
             _ctypes_library.viscera_attribute_name.argtypes = [ctypes.c_int]
-            _ctypes_library.viscera_spline_basis.restype = None
+            _ctypes_library.viscera_spline_basis.restype = ctypes.c_int
             _ctypes_library.viscera_spline_basis.argtypes = [
                 ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
             _ctypes_library.viscera_intestine_info.restype = ctypes.c_int

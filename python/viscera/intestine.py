@@ -34,6 +34,10 @@ def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarr
     s = np.ascontiguousarray(abscissae, dtype=np.float64).ravel()
     first = np.empty(s.size, dtype=np.int32)
     weight = np.empty((s.size, 4), dtype=np.float64)
+    if q.shape[0] < 4:
+        raise ValueError(f"a Catmull-Rom axis needs at least 4 control points, got {q.shape[0]}")
+    if not np.isfinite(s).all():
+        raise ValueError("abscissae must be finite")
     _library.native().viscera_spline_basis(
         q.shape[0], s.size, s.ctypes.data_as(ctypes.c_void_p), first.ctypes.data_as(ctypes.c_void_p),
         weight.ctypes.data_as(ctypes.c_void_p))

@@ -1,6 +1,7 @@
 """Bad config fails at model load with a ValueError naming the attribute and the value."""
 
 import mujoco
+import numpy as np
 import pytest
 
 from conftest import scene_xml
@@ -44,6 +45,15 @@ BAD = [
     ({"shape": "serpentine"}, ["box"]),
     ({"shape": "serpentine", "box": "0 0 0 0.3 0.1 0.05"}, ["box", "0 0 0 0.3 0.1 0.05", "cannot hold"]),
     ({"shape": "serpentine", "box": "1 0 0 0 1 1"}, ["box", "min"]),
+    # sizes past the documented maxima: rejected, never an overflow or a hang
+    ({"control_points": "2000000"}, ["control_points", "2000000", "at most"]),
+    ({"samples_per_segment": "65"}, ["samples_per_segment", "65", "at most"]),
+    ({"control_points": "500000", "samples_per_segment": "64"}, ["control_points", "samples_per_segment"]),
+    ({"substeps": "100000000"}, ["substeps", "100000000", "at most"]),
+    ({"collision_spheres": "99999999999"}, ["collision_spheres", "99999999999"]),
+    ({"length": "10000", "radius": "1e-6"}, ["length", "radius", "collision_spheres"]),
+    ({"density": "1e308"}, ["density", "non-finite mass"]),
+    ({"shape": "serpentine", "radius": "1e-12", "collision_spheres": "100", "box": "0 0 0 1 1 1"}, ["box"]),
 ]
 
 
@@ -77,3 +87,24 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
     assert gut.sphere_count == 161  # 4 m / 25 mm + 1: neighbours touch
     assert model.plugin_statenum[0] == 6 * 250 + 1
+
+
+def test_state_size_mismatch_fails_data_creation_instead_of_overflowing():
+    """A model whose config no longer matches its state size (an MJB saved by another
+    config, say) must not have its state overrun: MjData creation fails cleanly."""
+    import viscera
+    model = mujoco.MjModel.from_xml_string(scene_xml(control_points=20))
+    raw = bytes(model.plugin_attr)
+    start = raw.index(b"\x0020\x00") + 1  # the control_points value
+    model.plugin_attr[start:start + 2] = np.frombuffer(b"90", dtype=np.uint8).view(model.plugin_attr.dtype)
+    assert viscera.intestines(model)[0].control_count == 90
+    with pytest.raises(Exception):
+        mujoco.MjData(model)
+
+
+def test_spline_points_rejects_bad_input():
+    import viscera
+    with pytest.raises(ValueError, match="4 control points"):
+        viscera.spline_points(np.zeros((3, 3)), [0.5])
+    with pytest.raises(ValueError, match="finite"):
+        viscera.spline_points(np.zeros((5, 3)), [np.nan])

@@ -61,6 +61,10 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
   if (substeps < 1 || !(dt > 0.0)) return VSC_ERROR_INVALID_ARGUMENT;
   double h = dt / (double)substeps;
   vsc_status status = VSC_OK;
+  for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said
+    double* pinned_velocity = v + 3 * rod->pinned[i];
+    pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
+  }
   for (int s = 0; s < substeps; ++s) {
     vsc_status r = rk4_substep(rod, world, q, v, h);
     if (r != VSC_OK) status = r;

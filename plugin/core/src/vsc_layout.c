@@ -60,9 +60,11 @@ static int serpentine_make(double radius, const double box[6], serpentine* s) {
   }
   s->row = span[0];
   s->pitch = 4.0 * radius;
-  s->rows = (int)floor(span[1] / s->pitch + 1e-9) + 1;
-  s->layers = (int)floor(span[2] / s->pitch + 1e-9) + 1;
-  return s->row > 0.0 && radius > 0.0;
+  double rows = floor(span[1] / s->pitch + 1e-9) + 1.0, layers = floor(span[2] / s->pitch + 1e-9) + 1.0;
+  if (!(radius > 0.0) || !(s->row > 0.0) || !(rows * layers <= 1e9)) return 0;  // in double: no overflow
+  s->rows = (int)rows;
+  s->layers = (int)layers;
+  return 1;
 }
 
 double vsc_layout_serpentine_capacity(double radius, const double box[6]) {

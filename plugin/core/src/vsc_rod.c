@@ -29,7 +29,8 @@ vsc_rod_def vsc_default_rod_def(void) {
 }
 
 int vsc_default_collision_sphere_count(double length, double radius) {
-  return (int)ceil(length / (2.0 * radius) - 1e-9) + 1;
+  double count = ceil(length / (2.0 * radius) - 1e-9) + 1.0;  // in double: no int overflow
+  return isfinite(count) && count <= VSC_MAX_COLLISION_SPHERES ? (int)count : -1;
 }
 
 static int finite_nonneg(double x) { return isfinite(x) && x >= 0.0; }
@@ -37,6 +38,9 @@ static int finite_pos(double x) { return isfinite(x) && x > 0.0; }
 
 static vsc_status validate(const vsc_rod_def* d) {
   if (d->control_count < 4 || d->samples_per_segment < 1 || d->collision_sphere_count < 2)
+    return VSC_ERROR_INVALID_ARGUMENT;
+  if (d->control_count > VSC_MAX_CONTROL_POINTS || d->collision_sphere_count > VSC_MAX_COLLISION_SPHERES ||
+      (double)(d->control_count - 1) * (double)d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
     return VSC_ERROR_INVALID_ARGUMENT;
   if (!finite_pos(d->length) || !finite_pos(d->mass) || !finite_pos(d->radius) ||
       !finite_pos(d->contact_stiffness))
@@ -141,11 +145,11 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->pinned = (int*)malloc(sizeof(int) * (def->pinned_count > 0 ? def->pinned_count : 1));
   rod->is_pinned = (unsigned char*)calloc((size_t)n, 1);
   rod->gather_first = (int*)malloc(sizeof(int) * 3 * (size_t)n);
-  // a control point touches at most 4 segments of S samples, plus the joint sample
+  // each sample feeds 4 control points, so the transpose holds 4 N <= n (4 S + 1) weights
   rod->gather_weight = (double*)malloc(sizeof(double) * (size_t)n * (4 * (size_t)S + 1));
   rod->scratch = (double*)malloc(sizeof(double) * 10 * (size_t)N);
   rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
-  rod->sphere_velocity = (double*)calloc((size_t)(3 * spheres), sizeof(double));
+  rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
       !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||

@@ -46,7 +46,7 @@ static vsc_basis fold_segment(int n, int j, const double local[VSC_SPLINE_SUPPOR
 }
 
 static void locate(int n, double s, int* segment, double* u) {
-  if (s < 0.0) s = 0.0;
+  if (!(s >= 0.0)) s = 0.0;  // also NaN
   if (s > 1.0) s = 1.0;
   double x = s * (double)(n - 1);
   int j = (int)x;

@@ -43,11 +43,16 @@ typedef struct vsc_rod_def {
   int pinned_count;                  ///< number of entries of `pinned`
 } vsc_rod_def;
 
+/// Resolution limits: beyond them a definition is rejected (no overflow, no hang).
+#define VSC_MAX_CONTROL_POINTS 1000000
+#define VSC_MAX_SAMPLES 10000000          ///< (control points - 1) x samples per segment + 1
+#define VSC_MAX_COLLISION_SPHERES 10000000
+
 /// Defaults: a 4 m, 250-point, 12.5 mm-radius intestine of density 1000 kg/m^3.
 vsc_rod_def vsc_default_rod_def(void);
 
 /// Collision spheres needed for neighbours of radius `radius` (m) to touch
-/// along `length` (m): ceil(length / (2 radius)) + 1.
+/// along `length` (m): ceil(length / (2 radius)) + 1, or -1 past VSC_MAX_COLLISION_SPHERES.
 int vsc_default_collision_sphere_count(double length, double radius);
 
 /// A rod: the definition plus caches derived from it. Owns all its arrays.
