@@ -14,7 +14,7 @@ const char* const vsc_plugin_attributes[] = {
     "length", "control_points", "mass", "density", "radius", "radius_min", "radius_max",
     "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
     "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
-    "start", "direction", "points", "box", "samples_per_segment"};
+    "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -250,6 +250,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (d->collision_sphere_count < 2)  // the default overflowed
     return fail(&r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
                 "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
+  int self_collision = 1;
+  failed = read_count(&r, "self_collision", 1, 0, 1, &self_collision) ||
+           read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction, "Coulomb coefficient");
+  if (failed) return -1;
+  d->self_collision = self_collision;
+  c->friction = -1.0;
+  if (raw(&r, "friction") && read_nonnegative(&r, "friction", 0.0, &c->friction, "Coulomb coefficient")) return -1;
   if (c->radius_min > c->radius_max)
     return fail(&r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->radius_min, c->radius_max);
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)

@@ -22,6 +22,7 @@ typedef struct vsc_plugin_config {
   vsc_integrator integrator;  ///< only rk4 for now
   double radius_min;          ///< skin radius between control points (m)
   double radius_max;          ///< skin radius at control points (m)
+  double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]
   vsc_shape_kind shape;
   double start[3];            ///< line start (m)
   double direction[3];        ///< line direction (unit)

@@ -1,7 +1,9 @@
 // viscera.intestine callbacks: the rod integrates in `advance` (once per
-// mj_step, whatever MuJoCo's integrator), and `compute` only adds the rod's
-// contact reactions to qfrc_passive, so calling it four times under RK4, or
-// from mj_forward, changes nothing in plugin_state.
+// mj_step, whatever MuJoCo's integrator) and stores the reaction it exerted on
+// each body, averaged over that step, in plugin_state; `compute` adds those
+// stored wrenches to qfrc_passive. The bodies thus receive, one step later,
+// exactly the impulse the rod gave them (momentum is exchanged exactly), and
+// calling compute four times under RK4, or from mj_forward, changes nothing.
 #include "intestine.h"
 
 #include <math.h>
@@ -30,8 +32,7 @@ typedef struct intestine {
   int* geom_ids;          // MuJoCo geoms that may touch the intestine (geom_count)
   vsc_geom* geoms;        // their world description, refreshed each call (geom_count)
   int geom_count;
-  double* geom_wrench;    // reaction on each geom (6 x geom_count)
-  double* scratch;        // generalised forces (3n)
+  double* geom_wrench;    // reaction on each geom, averaged over a step (6 x geom_count)
   int warned_passive_off; // the passive-off warning was given for this data
 } intestine;
 
@@ -55,7 +56,6 @@ static void intestine_free(intestine* it) {
   free(it->geom_ids);
   free(it->geoms);
   free(it->geom_wrench);
-  free(it->scratch);
   free(it);
 }
 
@@ -70,11 +70,10 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   it->model = m;
   int n = it->config.rod.control_count;
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
-  it->scratch = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   it->geom_ids = (int*)malloc(sizeof(int) * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
   it->geoms = (vsc_geom*)calloc((size_t)(m->ngeom > 0 ? m->ngeom : 1), sizeof(vsc_geom));
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
-  if (!it->initial_q || !it->scratch || !it->geom_ids || !it->geoms || !it->geom_wrench) {
+  if (!it->initial_q || !it->geom_ids || !it->geoms || !it->geom_wrench) {
     strcpy(error, "viscera.intestine: out of memory");
     intestine_free(it);
     return NULL;
@@ -98,12 +97,22 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   return it;
 }
 
-static int state_size(int n) { return 6 * n + 1; }
+// plugin_state layout (see intestine.h): positions, velocities, divergence
+// count, the wrench on every body, the friction state of every sphere.
+static int wrench_address(int n) { return 6 * n + 1; }
+static int stick_address(const mjModel* m, int n) { return wrench_address(n) + 6 * (int)m->nbody; }
+static int state_size(const mjModel* m, int n, int spheres) {
+  return stick_address(m, n) + VSC_STICK_SIZE * spheres;
+}
+static int config_state_size(const mjModel* m, const vsc_plugin_config* c) {
+  return state_size(m, c->rod.control_count, c->rod.collision_sphere_count);
+}
 
-static void write_initial_state(const intestine* it, mjtNum* state) {
-  int n = it->config.rod.control_count;
-  memcpy(state, it->initial_q, sizeof(double) * 3 * (size_t)n);
-  memset(state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
+static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, const double* initial_q, mjtNum* state) {
+  int n = c->rod.control_count;
+  if (initial_q != state) memcpy(state, initial_q, sizeof(double) * 3 * (size_t)n);
+  memset(state + 3 * n, 0, sizeof(double) * (size_t)(stick_address(m, n) - 3 * n));
+  vsc_stick_clear(state + stick_address(m, n), c->rod.collision_sphere_count);
 }
 
 // The caches of this data, from the registry (never from d->plugin_data, which
@@ -119,9 +128,9 @@ static intestine* caches(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return NULL;
   }
-  if (m->plugin_statenum[instance] != state_size(fresh->config.rod.control_count)) {
+  if (m->plugin_statenum[instance] != config_state_size(m, &fresh->config)) {
     mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d; not stepped",
-                m->plugin_statenum[instance], state_size(fresh->config.rod.control_count));
+                m->plugin_statenum[instance], config_state_size(m, &fresh->config));
     intestine_free(fresh);
     return NULL;
   }
@@ -147,6 +156,15 @@ static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
     }
     for (int c = 0; c < 9; ++c) out->rotation[c] = d->geom_xmat[9 * g + c];
     out->bound_radius = m->geom_type[g] == mjGEOM_PLANE ? 0.0 : m->geom_rbound[g];
+    out->friction = it->config.friction >= 0.0 ? it->config.friction : m->geom_friction[3 * g];
+    const mjtNum* aabb = m->geom_aabb + 6 * g;  // local centre and half sizes
+    for (int a = 0; a < 3; ++a) {
+      const mjtNum* row = out->rotation + 3 * a;
+      double centre = out->position[a] + row[0] * aabb[0] + row[1] * aabb[1] + row[2] * aabb[2];
+      double half = fabs(row[0]) * aabb[3] + fabs(row[1]) * aabb[4] + fabs(row[2]) * aabb[5];
+      out->box[a] = centre - half;
+      out->box[3 + a] = centre + half;
+    }
     if (m->body_dofnum[m->geom_bodyid[g]] == 0 && m->body_mocapid[m->geom_bodyid[g]] < 0 &&
         m->body_weldid[m->geom_bodyid[g]] == 0) {
       memset(out->linear_velocity, 0, sizeof(out->linear_velocity));  // static geom
@@ -168,6 +186,16 @@ static int all_finite(const mjtNum* x, int size) {
   return 1;
 }
 
+// Friction partners are indices stored as doubles: anything out of range
+// (a state written by hand, say) becomes "no partner" before it is cast.
+static void sanitize_stick(mjtNum* stick, int spheres, int geoms) {
+  for (int i = 0; i < spheres; ++i) {
+    mjtNum* s = stick + VSC_STICK_SIZE * i;
+    if (!(s[0] >= 0.0 && s[0] < geoms)) s[0] = -1.0;
+    if (!(s[4] >= 0.0 && s[4] < spheres)) s[4] = -1.0;
+  }
+}
+
 static int contacts_enabled(const mjModel* m) { return !(m->opt.disableflags & mjDSBL_CONTACT); }
 
 static int intestine_nstate(const mjModel* m, int instance) {
@@ -178,10 +206,11 @@ static int intestine_nstate(const mjModel* m, int instance) {
   int n = config.rod.control_count;
   double* q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   int failed = !q || vsc_plugin_config_layout(&config, q, error, ERROR_SIZE);
+  int size = config_state_size(m, &config);
   free(q);
   vsc_plugin_config_free(&config);
   if (failed) mju_error("%s", error);
-  return state_size(n);
+  return size;
 }
 
 static int intestine_init(const mjModel* m, mjData* d, int instance) {
@@ -191,10 +220,10 @@ static int intestine_init(const mjModel* m, mjData* d, int instance) {
     mju_warning("%s", error);
     return -1;
   }
-  if (m->plugin_statenum[instance] != state_size(it->config.rod.control_count)) {
+  if (m->plugin_statenum[instance] != config_state_size(m, &it->config)) {
     // e.g. an MJB saved with another config: writing the state would overflow it
     mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d",
-                m->plugin_statenum[instance], state_size(it->config.rod.control_count));
+                m->plugin_statenum[instance], config_state_size(m, &it->config));
     intestine_free(it);
     return -1;
   }
@@ -206,7 +235,7 @@ static int intestine_init(const mjModel* m, mjData* d, int instance) {
   }
   intestine_free((intestine*)replaced);  // a stale entry of a freed mjData at this address
   d->plugin_data[instance] = (uintptr_t)it;
-  write_initial_state(it, d->plugin_state + m->plugin_stateadr[instance]);
+  write_initial_state(m, &it->config, it->initial_q, d->plugin_state + m->plugin_stateadr[instance]);
   return 0;
 }
 
@@ -221,33 +250,25 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
   vsc_plugin_config config;
   char error[ERROR_SIZE];
   if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) return;  // checked at load
-  int n = config.rod.control_count;
-  if (m->plugin_statenum[instance] == state_size(n) &&
+  if (m->plugin_statenum[instance] == config_state_size(m, &config) &&
       vsc_plugin_config_layout(&config, plugin_state, error, ERROR_SIZE) == 0)
-    memset(plugin_state + 3 * n, 0, sizeof(double) * (3 * (size_t)n + 1));
+    write_initial_state(m, &config, plugin_state, plugin_state);
   vsc_plugin_config_free(&config);
 }
 
-// Reaction of the intestine on the MuJoCo bodies it touches, into qfrc_passive.
+// Reaction of the intestine on the MuJoCo bodies over the last step, into
+// qfrc_passive (the rod's state is not read: compute has nothing to integrate).
 static void intestine_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+  if (capability_bit != mjPLUGIN_PASSIVE) return;
   intestine* it = caches(m, d, instance);
-  if (!it || it->geom_count == 0 || !contacts_enabled(m)) return;
+  if (!it) return;
   int n = it->config.rod.control_count;
-  const mjtNum* q = d->plugin_state + m->plugin_stateadr[instance];
-  const mjtNum* v = q + 3 * n;
-  if (!all_finite(q, 6 * n)) return;
-  update_geoms(m, d, it);
-  vsc_rod_update_spheres(it->rod, q, v);
-  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
-  memset(it->scratch, 0, sizeof(double) * 3 * (size_t)n);
-  vsc_world world = {{0, 0, 0}, it->geoms, it->geom_count};
-  if (vsc_rod_contact_forces(it->rod, &world, it->scratch, it->geom_wrench) == 0) return;
-  for (int i = 0; i < it->geom_count; ++i) {
-    const double* w = it->geom_wrench + 6 * i;
-    int body = m->geom_bodyid[it->geom_ids[i]];
-    if (body == 0 || (w[0] == 0 && w[1] == 0 && w[2] == 0 && w[3] == 0 && w[4] == 0 && w[5] == 0)) continue;
+  const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + wrench_address(n);
+  for (int body = 1; body < m->nbody; ++body) {
+    const mjtNum* w = wrench + 6 * body;
+    if (w[0] == 0 && w[1] == 0 && w[2] == 0 && w[3] == 0 && w[4] == 0 && w[5] == 0) continue;
     if (!all_finite(w, 6)) continue;  // never hand MuJoCo a NaN
-    mj_applyFT(m, d, w, w + 3, it->geoms[i].position, body, d->qfrc_passive);
+    mj_applyFT(m, d, w, w + 3, d->xipos + 3 * body, body, d->qfrc_passive);
   }
 }
 
@@ -257,13 +278,14 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (!it) return;
   int n = it->config.rod.control_count;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (!all_finite(state, 6 * n)) {  // e.g. a bad mj_setState: start over from the initial shape
+  if (!all_finite(state, m->plugin_statenum[instance])) {  // e.g. a bad mj_setState: start over
     mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
     double count = isfinite(state[6 * n]) ? state[6 * n] : 0.0;
-    write_initial_state(it, state);
+    write_initial_state(m, &it->config, it->initial_q, state);
     state[6 * n] = count + 1.0;
     return;
   }
+  sanitize_stick(state + stick_address(m, n), it->config.rod.collision_sphere_count, it->geom_count);
   vsc_world world = {{0, 0, 0}, it->geoms, contacts_enabled(m) ? it->geom_count : 0};
   int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
   if (passive_off && world.geom_count > 0 && !it->warned_passive_off) {
@@ -275,7 +297,27 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
     for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
   if (world.geom_count > 0) update_geoms(m, d, it);
-  vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, m->opt.timestep, it->config.substeps);
+  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
+  world.geom_wrench = it->geom_wrench;
+  vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, state + stick_address(m, n),
+                                   m->opt.timestep, it->config.substeps);
+  // the step's average reaction per body, as force and torque about its centre of mass
+  mjtNum* wrench = state + wrench_address(n);
+  memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
+  for (int i = 0; i < world.geom_count; ++i) {
+    const double* w = it->geom_wrench + 6 * i;
+    int g = it->geom_ids[i], body = m->geom_bodyid[g];
+    const mjtNum* com = d->xipos + 3 * body;
+    double arm[3] = {it->geoms[i].position[0] - com[0], it->geoms[i].position[1] - com[1],
+                     it->geoms[i].position[2] - com[2]};
+    mjtNum* out = wrench + 6 * body;
+    out[0] += w[0];
+    out[1] += w[1];
+    out[2] += w[2];
+    out[3] += w[3] + arm[1] * w[2] - arm[2] * w[1];
+    out[4] += w[4] + arm[2] * w[0] - arm[0] * w[2];
+    out[5] += w[5] + arm[0] * w[1] - arm[1] * w[0];
+  }
   if (status == VSC_ERROR_DIVERGED) {
     double count = state[6 * n] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))  // warn at counts 1, 2, 4, 8...: no spam

@@ -1,8 +1,12 @@
 """Reading intestines out of MuJoCo models and data, and writing their MJCF.
 
 State layout of one ``viscera.intestine`` instance in ``data.plugin_state``
-(n control points): positions ``[0, 3n)`` (m, world frame, x y z per point),
-velocities ``[3n, 6n)`` (m/s), then the divergence count ``[6n]``.
+(n control points, S collision spheres, B = model.nbody): positions ``[0, 3n)``
+(m, world frame, x y z per point), velocities ``[3n, 6n)`` (m/s), the
+divergence count ``[6n]``, then for every body the wrench the intestine
+exerted on it over the last step ``[6n+1, 6n+1+6B)`` (force N, torque N m about
+the body's centre of mass, world frame), then the friction state of every
+sphere (8 each: rigid partner, elongation m x3, self partner, elongation m x3).
 """
 
 from __future__ import annotations
@@ -81,6 +85,13 @@ class Intestine:
         """Control point velocities (m/s, shape (n, 3)), a view into data.plugin_state."""
         n = self.control_count
         return self._state(data)[3 * n:6 * n].reshape(n, 3)
+
+    def body_wrench(self, data: mujoco.MjData, body: int | str) -> np.ndarray:
+        """Force (N) and torque (N m, about the body's centre of mass), world frame, that the
+        intestine exerted on `body` (id or name), averaged over the last step; shape (6,)."""
+        body_id = body if isinstance(body, (int, np.integer)) else self.model.body(body).id
+        start = 6 * self.control_count + 1 + 6 * int(body_id)
+        return self._state(data)[start:start + 6].copy()
 
     def divergence_count(self, data: mujoco.MjData) -> int:
         """Number of steps whose state diverged and was restored since the last reset."""

@@ -86,7 +86,8 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.control_count == 250
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
     assert gut.sphere_count == 161  # 4 m / 25 mm + 1: neighbours touch
-    assert model.plugin_statenum[0] == 6 * 250 + 1
+    # positions, velocities, divergence count, a wrench per body, friction state per sphere
+    assert model.plugin_statenum[0] == 6 * 250 + 1 + 6 * model.nbody + 8 * 161
 
 
 def test_state_size_mismatch_fails_data_creation_instead_of_overflowing():

@@ -1,6 +1,8 @@
 // RK4 on the first-order system (q, v)' = (v, a(q, v)).
 #include "viscera/vsc_integrate.h"
 
+#include "viscera/vsc_contact.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -11,7 +13,10 @@ static int state_is_sane(const double* q, const double* v, int size) {
   return 1;
 }
 
-static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, double* v, double h) {
+// `world` is this evaluation's copy; its wrench weight is set per stage so the
+// stages' reactions add up to their average over the whole step dt.
+static vsc_status rk4_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h, double dt) {
+  double weight = h / (6.0 * dt);
   int size = 3 * rod->n;
   double* q0 = rod->stage;
   double* v0 = q0 + size;
@@ -23,6 +28,7 @@ static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, d
   memcpy(q0, q, sizeof(double) * size);
   memcpy(v0, v, sizeof(double) * size);
   // stage 1 at (q0, v0)
+  world->wrench_weight = weight;
   vsc_rod_acceleration(rod, world, q0, v0, a);
   for (int i = 0; i < size; ++i) {
     dq[i] = v0[i];
@@ -32,6 +38,7 @@ static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, d
   }
   // stages 2 and 3 at half steps
   static const double next_fraction[2] = {0.5, 1.0};
+  world->wrench_weight = 2.0 * weight;
   for (int stage = 0; stage < 2; ++stage) {
     vsc_rod_acceleration(rod, world, qs, vs, a);
     double f = next_fraction[stage] * h;
@@ -44,6 +51,7 @@ static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, d
     }
   }
   // stage 4 at the full step
+  world->wrench_weight = weight;
   vsc_rod_acceleration(rod, world, qs, vs, a);
   double sixth = h / 6.0;
   for (int i = 0; i < size; ++i) {
@@ -57,8 +65,11 @@ static vsc_status rk4_substep(vsc_rod* rod, const vsc_world* world, double* q, d
   return VSC_ERROR_DIVERGED;
 }
 
-vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double dt, int substeps) {
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
+                        int substeps) {
   if (substeps < 1 || !(dt > 0.0)) return VSC_ERROR_INVALID_ARGUMENT;
+  vsc_world stage_world = *world;
+  stage_world.stick = stick;
   double h = dt / (double)substeps;
   vsc_status status = VSC_OK;
   for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said
@@ -66,8 +77,13 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
     pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
   }
   for (int s = 0; s < substeps; ++s) {
-    vsc_status r = rk4_substep(rod, world, q, v, h);
-    if (r != VSC_OK) status = r;
+    vsc_status r = rk4_substep(rod, &stage_world, q, v, h, dt);
+    if (r != VSC_OK) {
+      status = r;
+      if (stick) vsc_stick_clear(stick, rod->def.collision_sphere_count);
+    } else if (stick) {
+      vsc_rod_update_stick(rod, stick, h);  // from the last stage's contacts
+    }
   }
   return status;
 }

@@ -25,6 +25,8 @@ vsc_rod_def vsc_default_rod_def(void) {
   def.collision_sphere_count = vsc_default_collision_sphere_count(def.length, def.radius);
   def.contact_stiffness = 2000.0;
   def.contact_damping = 2.0;
+  def.self_collision = 1;
+  def.self_friction = 0.3;
   return def;
 }
 
@@ -47,7 +49,7 @@ static vsc_status validate(const vsc_rod_def* d) {
     return VSC_ERROR_INVALID_ARGUMENT;
   if (!finite_nonneg(d->stretch_stiffness) || !finite_nonneg(d->bend_stiffness) ||
       !finite_nonneg(d->global_stretch_stiffness) || !finite_nonneg(d->damping) ||
-      !finite_nonneg(d->contact_damping))
+      !finite_nonneg(d->contact_damping) || !finite_nonneg(d->self_friction))
     return VSC_ERROR_INVALID_ARGUMENT;
   if (d->pinned_count < 0 || (d->pinned_count > 0 && !d->pinned)) return VSC_ERROR_INVALID_ARGUMENT;
   for (int i = 0; i < d->pinned_count; ++i)
@@ -151,9 +153,11 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
+  rod->touch = (double*)malloc(sizeof(double) * VSC_TOUCH_SIZE * (size_t)spheres);
+  vsc_grid_create(spheres, &rod->grid);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
       !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
-      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage) {
+      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
@@ -172,6 +176,11 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
   build_gather(rod);
+  // self-contact exclusion: pairs closer along the rest axis than pi r (the
+  // arc of the tightest fold, whose centre line has radius r) are neighbours
+  double sphere_spacing = def->length / (double)(spheres - 1);
+  rod->self_gap = (int)ceil(VSC_PI * def->radius / sphere_spacing - 1e-9);
+  if (rod->self_gap < 1) rod->self_gap = 1;
   assemble_mass(rod);
   status = factor_mass(rod);
   if (status != VSC_OK) {
@@ -197,6 +206,8 @@ void vsc_rod_destroy(vsc_rod* rod) {
   free(rod->sphere_xyz);
   free(rod->sphere_velocity);
   free(rod->stage);
+  free(rod->touch);
+  vsc_grid_destroy(rod->grid);
   free(rod);
 }
 
@@ -311,8 +322,7 @@ double vsc_rod_length(vsc_rod* rod, const double* q) {
   return spring_edges(rod, 1);
 }
 
-void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                    double* Q, double* geom_wrench) {
+void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v, double* Q) {
   int n = rod->n;
   for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj
     double m = rod->mass_row_sum[k];
@@ -323,16 +333,16 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
   vsc_rod_update_samples(rod, q);
   elastic_sample_forces(rod);
   gather_to_control(rod, Q);
-  if (world->geom_count > 0) {
+  if (world->geom_count > 0 || rod->def.self_collision) {
     vsc_rod_update_spheres(rod, q, v);
-    vsc_rod_contact_forces(rod, world, Q, geom_wrench);
+    vsc_rod_contact_forces(rod, world, Q);
   }
 }
 
 void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
                           double* a) {
   int n = rod->n;
-  vsc_rod_forces(rod, world, q, v, a, NULL);
+  vsc_rod_forces(rod, world, q, v, a);
   for (int k = 0; k < n; ++k)
     if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
   vsc_band_solve3(rod->mass_factor, n, a);

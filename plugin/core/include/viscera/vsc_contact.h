@@ -1,18 +1,49 @@
-// Penalty contact between the rod's collision spheres and rigid geoms
-// (France et al. 2002, 3.3). Spheres of radius def.radius sit uniformly in
-// abscissa; a sphere that penetrates a geom by depth d > 0 with normal approach
-// speed v_n receives f = max(0, k d - c v_n) along the outward normal, applied at
-// its abscissa through the spline basis (virtual work). The geom receives the
-// opposite force at the contact point on its surface.
+// Contacts of the rod's collision spheres with rigid geoms and with each other
+// (France et al. 2002, 3.3), found through the sphere grid (vsc_grid.h).
+//
+// Spheres of radius def.radius sit uniformly in abscissa. A contact of depth
+// d > 0 and normal approach speed v_n pushes with f_n = max(0, k d - c v_n)
+// along its normal (k = contact_stiffness, c = contact_damping), applied at
+// the sphere's abscissa through the spline basis (virtual work); the partner
+// (geom or sphere) receives the opposite force.
+//
+// Self-collision: spheres i and j never collide when |i - j| < rod->self_gap,
+// the smallest index gap whose rest arc length reaches pi r. The tightest fold
+// of a tube of radius r has a centre line of radius r, so its U-turn spans
+// pi r of arc: pairs beyond that (the fold's two legs) still collide, while on
+// a straight tube such pairs are at least pi r > 2r apart, so it starts with
+// no self-contact.
+//
+// Friction (regularised Coulomb): each contact has a tangential stick spring
+// of stiffness k and damping c, F_t = -k delta - c v_t, limited to mu f_n. The
+// elongation delta lives in the host's state (VSC_STICK_SIZE numbers per
+// sphere: one rigid and one self partner) and advances after each substep by
+// v_t h, clamped at the slip limit k |delta| = mu f_n: below the friction
+// angle a contact holds (no creep), above it slides with force mu f_n.
+// Contacts without a stick slot get F_t = -c v_t limited to mu f_n.
 #ifndef VISCERA_VSC_CONTACT_H
 #define VISCERA_VSC_CONTACT_H
 
 #include "viscera/vsc_rod.h"
 
-/// Add contact forces to Q (N, 3n) and, if geom_wrench is not NULL, the
-/// reaction on each geom (6 per geom: force N, torque N m about its position).
-/// rod->sphere_xyz and rod->sphere_velocity must be current
-/// (vsc_rod_update_spheres). Returns the number of sphere-geom contacts.
-int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q, double* geom_wrench);
+/// Friction state per sphere: rigid partner (geom index, -1 none), its
+/// elongation (m, 3), self partner (sphere index, -1 none), its elongation (m, 3).
+#define VSC_STICK_SIZE 8
+
+/// Per sphere record of the last evaluation's strongest contacts (rigid, then
+/// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3).
+#define VSC_TOUCH_SIZE 18
+
+/// Write the "no contact" friction state for every sphere (VSC_STICK_SIZE each).
+void vsc_stick_clear(double* stick, int sphere_count);
+
+/// Add contact forces to Q (N, 3n); reactions on geoms go to world->geom_wrench
+/// times world->wrench_weight. rod->sphere_xyz and rod->sphere_velocity must be
+/// current (vsc_rod_update_spheres). Returns the number of contacts.
+int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q);
+
+/// Advance the friction state by a substep of h (s), from the contacts of the
+/// last evaluation.
+void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h);
 
 #endif  // VISCERA_VSC_CONTACT_H

@@ -21,6 +21,8 @@ typedef struct vsc_geom {
   double bound_radius;         ///< radius of a sphere at `position` holding the geom (m); <= 0: unbounded
   double linear_velocity[3];   ///< velocity of the frame origin (m/s)
   double angular_velocity[3];  ///< angular velocity (rad/s)
+  double box[6];               ///< world-frame bounding box, min then max (m); ignored when unbounded
+  double friction;             ///< Coulomb coefficient of the intestine against this geom (>= 0)
 } vsc_geom;
 
 /// Signed distance (m) from world point `point` to the geom surface, negative

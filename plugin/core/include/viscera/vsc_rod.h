@@ -23,6 +23,7 @@
 
 #include "viscera/vsc_base.h"
 #include "viscera/vsc_geom.h"
+#include "viscera/vsc_grid.h"
 #include "viscera/vsc_spline.h"
 
 /// Creation parameters. Initialise with vsc_default_rod_def().
@@ -38,7 +39,9 @@ typedef struct vsc_rod_def {
   double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
   double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
-  double contact_damping;            ///< penalty damping against geoms (N s/m, >= 0)
+  double contact_damping;            ///< penalty damping, also tangential (N s/m, >= 0)
+  int self_collision;                ///< 1: the intestine collides with itself
+  double self_friction;              ///< Coulomb coefficient against itself (>= 0)
   const int* pinned;                 ///< indices of control points fixed in space (copied)
   int pinned_count;                  ///< number of entries of `pinned`
 } vsc_rod_def;
@@ -91,6 +94,9 @@ typedef struct vsc_rod {
   double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
   double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
   double* stage;             ///< integrator stages (8 x 3n)
+  vsc_grid* grid;            ///< sphere grid, cell = 2 radius
+  int self_gap;              ///< spheres closer than this many indices never collide (see vsc_contact.h)
+  double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
 } vsc_rod;
 
@@ -106,15 +112,17 @@ typedef struct vsc_world {
   double gravity[3];        ///< gravitational acceleration (m/s^2)
   const vsc_geom* geoms;    ///< rigid geoms the rod collides with
   int geom_count;
+  double* geom_wrench;      ///< optional output: reaction on each geom, 6 per geom (force N, torque N m
+                            ///< about the geom position, world frame), added times wrench_weight
+  double wrench_weight;     ///< weight of this evaluation's reactions (vsc_rod_step sets it per stage)
+  const double* stick;      ///< optional friction state, VSC_STICK_SIZE per sphere (see vsc_contact.h)
 } vsc_world;
 
 /// Generalised forces on control points, Q = Q_gravity + Q_contact - grad E
 /// (N, 3n interleaved, overwritten). Damping is not included (see
-/// vsc_rod_acceleration). If geom_wrench is not NULL, the reaction of the rod
-/// on each geom is added to it: 6 per geom, force (N) then torque about the
-/// geom's position (N m), world frame.
+/// vsc_rod_acceleration). Reactions on geoms go to world->geom_wrench.
 void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                    double* generalized_force, double* geom_wrench);
+                    double* generalized_force);
 
 /// Accelerations a (m/s^2, 3n, overwritten) from positions q and velocities v:
 /// a = M^{-1} Q - damping v, and a = 0 at pinned points. O(n).
