@@ -2,6 +2,7 @@
 #include "viscera/vsc_contact.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 enum { RIGID = 0, SELF = 9 };  // offsets of the two records in a touch entry
@@ -99,8 +100,6 @@ static void self_pair(void* context, int earlier, int item) {
   ++p->contacts;
 }
 
-static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
-
 // Narrow phase of sphere i against geom p->geom.
 static void sphere_geom(void* context, int i) {
   pass* p = (pass*)context;
@@ -143,43 +142,197 @@ static void sphere_geom(void* context, int i) {
   ++p->contacts;
 }
 
+struct vsc_contact_lists {
+  int sphere_count;
+  int self_count, self_capacity;
+  int* self_pairs;            // candidate sphere pairs a < b, sorted (2 per pair)
+  int geom_count, geom_capacity;
+  int* geom_pairs;            // candidate (geom, sphere) pairs, sorted (2 per pair)
+  int built;                  // 0: must be built
+  int built_geoms;            // geom count at build
+  int built_geom_capacity;
+  double* sphere_xyz;         // sphere centres at build (3 per sphere) (m)
+  double* geom_pose;          // geom position and rotation at build (12 per geom)
+  const vsc_geom* geoms;      // the host's geom array at build
+};
+
+vsc_contact_lists* vsc_contact_lists_create(int spheres) {
+  vsc_contact_lists* l = (vsc_contact_lists*)calloc(1, sizeof(vsc_contact_lists));
+  if (!l) return NULL;
+  l->sphere_count = spheres;
+  l->self_capacity = 64 * spheres;  // dense piles hold ~30 neighbours within 2r + m
+  l->geom_capacity = 8 * spheres;
+  l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
+  l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
+  l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
+  if (!l->self_pairs || !l->geom_pairs || !l->sphere_xyz) {
+    vsc_contact_lists_destroy(l);
+    return NULL;
+  }
+  return l;
+}
+
+void vsc_contact_lists_destroy(vsc_contact_lists* l) {
+  if (!l) return;
+  free(l->self_pairs);
+  free(l->geom_pairs);
+  free(l->sphere_xyz);
+  free(l->geom_pose);
+  free(l);
+}
+
+static int compare_pairs(const void* a, const void* b) {
+  const int* x = (const int*)a;
+  const int* y = (const int*)b;
+  if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+  return x[1] < y[1] ? -1 : (x[1] > y[1] ? 1 : 0);
+}
+
+typedef struct build {
+  vsc_rod* rod;
+  const vsc_world* world;
+  int geom;
+  double reach;   // sphere-geom candidate distance, r + m (m)
+  int overflow;
+} build;
+
+static void collect_self(void* context, int earlier, int item) {
+  build* b = (build*)context;
+  vsc_contact_lists* l = b->rod->lists;
+  int lo = earlier < item ? earlier : item, hi = earlier < item ? item : earlier;
+  if (hi - lo < b->rod->self_gap) return;
+  if (l->self_count >= l->self_capacity) {
+    b->overflow = 1;
+    return;
+  }
+  l->self_pairs[2 * l->self_count] = lo;
+  l->self_pairs[2 * l->self_count + 1] = hi;
+  ++l->self_count;
+}
+
+static void collect_geom(void* context, int i) {
+  build* b = (build*)context;
+  vsc_contact_lists* l = b->rod->lists;
+  double n[3];
+  if (vsc_geom_distance(&b->world->geoms[b->geom], b->rod->sphere_xyz + 3 * i, n) > b->reach) return;
+  if (l->geom_count >= l->geom_capacity) {
+    b->overflow = 1;
+    return;
+  }
+  l->geom_pairs[2 * l->geom_count] = b->geom;
+  l->geom_pairs[2 * l->geom_count + 1] = i;
+  ++l->geom_count;
+}
+
+static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
+
+// One grid pass with spheres inflated by half the margin. Returns 0 if a list
+// overflowed (the caller then evaluates without lists).
+static int build_lists(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int spheres = rod->def.collision_sphere_count;
+  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  build b = {rod, world, -1, r + margin, 0};
+  l->self_count = l->geom_count = 0;
+  double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+  vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
+  vsc_pair_fn pair = rod->def.self_collision ? collect_self : no_pair;
+  for (int i = 0; i < spheres; ++i) {
+    const double* x = rod->sphere_xyz + 3 * i;
+    double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
+    double hi[3] = {x[0] + inflated, x[1] + inflated, x[2] + inflated};
+    for (int a = 0; a < 3; ++a) {
+      rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
+      rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
+    }
+    vsc_grid_insert(rod->grid, i, lo, hi, pair, &b);  // finite boxes under a cell: cannot fail
+  }
+  for (int g = 0; g < world->geom_count; ++g) {
+    const vsc_geom* geom = &world->geoms[g];
+    b.geom = g;
+    int first = l->geom_count, visited = -1;
+    if (geom->bound_radius > 0.0) {
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = fmax(geom->box[a] - 0.5 * margin, rod_box[a]);
+        hi[a] = fmin(geom->box[3 + a] + 0.5 * margin, rod_box[3 + a]);
+      }
+      visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, collect_geom, &b);
+    }
+    if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
+      for (int i = 0; i < spheres; ++i) collect_geom(&b, i);
+    qsort(l->geom_pairs + 2 * first, (size_t)(l->geom_count - first), 2 * sizeof(int), compare_pairs);
+  }
+  qsort(l->self_pairs, (size_t)l->self_count, 2 * sizeof(int), compare_pairs);
+  memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  if (world->geom_count > l->built_geom_capacity) {
+    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 12 * (size_t)world->geom_count);
+    if (!poses) return 0;
+    l->geom_pose = poses;
+    l->built_geom_capacity = world->geom_count;
+  }
+  for (int g = 0; g < world->geom_count; ++g) {
+    memcpy(l->geom_pose + 12 * g, world->geoms[g].position, sizeof(double) * 3);
+    memcpy(l->geom_pose + 12 * g + 3, world->geoms[g].rotation, sizeof(double) * 9);
+  }
+  l->built_geoms = world->geom_count;
+  l->geoms = world->geoms;
+  l->built = !b.overflow;
+  return l->built;
+}
+
+// The lists still hold every possible contact while no sphere and no geom
+// moved by half the margin since they were built.
+static int lists_valid(const vsc_rod* rod, const vsc_world* world) {
+  const vsc_contact_lists* l = rod->lists;
+  if (!l->built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius, half2 = half * half;
+  for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
+    const double* x = rod->sphere_xyz + 3 * i;
+    const double* x0 = l->sphere_xyz + 3 * i;
+    double dx = x[0] - x0[0], dy = x[1] - x0[1], dz = x[2] - x0[2];
+    if (!(dx * dx + dy * dy + dz * dz <= half2)) return 0;
+  }
+  for (int g = 0; g < world->geom_count; ++g) {
+    const vsc_geom* geom = &world->geoms[g];
+    const double* pose = l->geom_pose + 12 * g;
+    double moved = 0.0, turned = 0.0;
+    for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
+    for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
+    if (geom->bound_radius > 0.0) {
+      // no surface point moved more than |dp| + R ||dR||_F
+      if (!(sqrt(moved) + geom->bound_radius * sqrt(turned) <= half)) return 0;
+    } else if (moved != 0.0 || turned != 0.0) {
+      return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
+    }
+  }
+  return 1;
+}
+
 int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
   int spheres = rod->def.collision_sphere_count;
-  double r = rod->def.radius;
   pass p = {rod, world, Q, 0, -1};
   for (int i = 0; i < spheres; ++i) {
     double* touch = rod->touch + VSC_TOUCH_SIZE * i;
     touch[RIGID + T_PARTNER] = touch[SELF + T_PARTNER] = -1.0;
     touch[RIGID + T_NORMAL_FORCE] = touch[SELF + T_NORMAL_FORCE] = 0.0;
   }
-  // fill the grid; self pairs are found as spheres go in
-  double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-  vsc_grid_begin(rod->grid, 2.0 * r * (1.0 + 1e-6));  // a hair above a box: at most 2 cells per axis
-  vsc_pair_fn pair = rod->def.self_collision ? self_pair : no_pair;
-  for (int i = 0; i < spheres; ++i) {
-    const double* x = rod->sphere_xyz + 3 * i;
-    double lo[3] = {x[0] - r, x[1] - r, x[2] - r}, hi[3] = {x[0] + r, x[1] + r, x[2] + r};
-    for (int a = 0; a < 3; ++a) {
-      rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
-      rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
-    }
-    vsc_grid_insert(rod->grid, i, lo, hi, pair, &p);  // cannot fail: finite boxes of one cell
-  }
-  // each geom meets the spheres in the cells its box shares with the rod's
-  for (int g = 0; g < world->geom_count; ++g) {
-    const vsc_geom* geom = &world->geoms[g];
-    p.geom = g;
-    int visited = -1;
-    if (geom->bound_radius > 0.0) {
-      double lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = geom->box[a] > rod_box[a] ? geom->box[a] : rod_box[a];
-        hi[a] = geom->box[3 + a] < rod_box[3 + a] ? geom->box[3 + a] : rod_box[3 + a];
-      }
-      visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, sphere_geom, &p);
-    }
-    if (visited < 0)  // unbounded (planes) or a box spanning more cells than spheres: test all
+  vsc_contact_lists* l = rod->lists;
+  if (!lists_valid(rod, world) && !build_lists(rod, world)) {
+    // a list overflowed (an extreme pile): this evaluation tests everything directly
+    l->built = 0;
+    for (int a = 0; a < spheres && rod->def.self_collision; ++a)
+      for (int b = a + rod->self_gap; b < spheres; ++b) self_pair(&p, a, b);
+    for (int g = 0; g < world->geom_count; ++g) {
+      p.geom = g;
       for (int i = 0; i < spheres; ++i) sphere_geom(&p, i);
+    }
+    return p.contacts;
+  }
+  for (int k = 0; k < l->self_count; ++k) self_pair(&p, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+  for (int k = 0; k < l->geom_count; ++k) {
+    p.geom = l->geom_pairs[2 * k];
+    sphere_geom(&p, l->geom_pairs[2 * k + 1]);
   }
   return p.contacts;
 }

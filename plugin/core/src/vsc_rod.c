@@ -155,9 +155,10 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   rod->touch = (double*)malloc(sizeof(double) * VSC_TOUCH_SIZE * (size_t)spheres);
   vsc_grid_create(spheres, &rod->grid);
+  rod->lists = vsc_contact_lists_create(spheres);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
       !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
-      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid) {
+      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid || !rod->lists) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
@@ -208,6 +209,7 @@ void vsc_rod_destroy(vsc_rod* rod) {
   free(rod->stage);
   free(rod->touch);
   vsc_grid_destroy(rod->grid);
+  vsc_contact_lists_destroy(rod->lists);
   free(rod);
 }
 

@@ -1,6 +1,13 @@
 // Contacts of the rod's collision spheres with rigid geoms and with each other
 // (France et al. 2002, 3.3), found through the sphere grid (vsc_grid.h).
 //
+// Broad phase (Verlet lists): one grid pass finds the candidate pairs within a
+// margin (spheres closer than 2r + m, sphere-geom pairs within r + m by exact
+// distance, m = VSC_CONTACT_MARGIN r); every force evaluation then runs only
+// the narrow phase over them, until a sphere or a geom has moved by m / 2 since
+// the lists were built (then no contact can have been missed) and they are
+// rebuilt. The lists are sorted, so forces do not depend on when they were built.
+//
 // Spheres of radius def.radius sit uniformly in abscissa. A contact of depth
 // d > 0 and normal approach speed v_n pushes with f_n = max(0, k d - c v_n)
 // along its normal (k = contact_stiffness, c = contact_damping), applied at
@@ -33,6 +40,14 @@
 /// Per sphere record of the last evaluation's strongest contacts (rigid, then
 /// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3).
 #define VSC_TOUCH_SIZE 18
+
+/// Candidate lists are built with this margin, as a multiple of the radius:
+/// they stay valid until a sphere or a geom moves by half of it.
+#define VSC_CONTACT_MARGIN 1.0
+
+/// Candidate contact lists of one rod (owned by the rod).
+vsc_contact_lists* vsc_contact_lists_create(int sphere_count);
+void vsc_contact_lists_destroy(vsc_contact_lists* lists);
 
 /// Write the "no contact" friction state for every sphere (VSC_STICK_SIZE each).
 void vsc_stick_clear(double* stick, int sphere_count);

@@ -26,6 +26,8 @@
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_spline.h"
 
+typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact.c
+
 /// Creation parameters. Initialise with vsc_default_rod_def().
 typedef struct vsc_rod_def {
   int control_count;                 ///< control points n (>= 4)
@@ -94,7 +96,8 @@ typedef struct vsc_rod {
   double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
   double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
   double* stage;             ///< integrator stages (8 x 3n)
-  vsc_grid* grid;            ///< sphere grid, cell = 2 radius
+  vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
+  vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
   int self_gap;              ///< spheres closer than this many indices never collide (see vsc_contact.h)
   double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
