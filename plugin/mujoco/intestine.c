@@ -169,9 +169,11 @@ static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
         m->body_weldid[m->geom_bodyid[g]] == 0) {
       memset(out->linear_velocity, 0, sizeof(out->linear_velocity));  // static geom
       memset(out->angular_velocity, 0, sizeof(out->angular_velocity));
+      out->is_static = 1;
     } else {
       mjtNum velocity[6];  // rotation then translation, world frame, at the geom origin
       mj_objectVelocity(m, d, mjOBJ_GEOM, g, velocity, 0);
+      out->is_static = 0;
       for (int c = 0; c < 3; ++c) {
         out->angular_velocity[c] = velocity[c];
         out->linear_velocity[c] = velocity[3 + c];
@@ -198,6 +200,24 @@ static void sanitize_stick(mjtNum* stick, int spheres, int geoms) {
 
 static int contacts_enabled(const mjModel* m) { return !(m->opt.disableflags & mjDSBL_CONTACT); }
 
+// Each tool force sensor reads 6 numbers (its body is checked in init: the
+// sensor's object is not resolved yet when MuJoCo asks for the size).
+static int intestine_nsensordata(const mjModel* m, int instance, int sensor_id) { return 6; }
+
+// Every sensor of this instance must name the body it measures.
+static int check_sensors(const mjModel* m, int instance) {
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    if (m->sensor_objtype[s] != mjOBJ_BODY || m->sensor_objid[s] < 0 || m->sensor_objid[s] >= m->nbody) {
+      const char* name = mj_id2name(m, mjOBJ_SENSOR, s);
+      mju_warning("viscera.intestine: sensor '%s' must name the body it measures: objtype=\"body\" objname=\"...\"",
+                  name ? name : "(unnamed)");
+      return -1;
+    }
+  }
+  return 0;
+}
+
 static int intestine_nstate(const mjModel* m, int instance) {
   // Validate here: an error in nstate fails model compilation with our message.
   vsc_plugin_config config;
@@ -215,6 +235,7 @@ static int intestine_nstate(const mjModel* m, int instance) {
 
 static int intestine_init(const mjModel* m, mjData* d, int instance) {
   char error[ERROR_SIZE];
+  if (check_sensors(m, instance)) return -1;
   intestine* it = intestine_create(m, instance, error);
   if (!it) {
     mju_warning("%s", error);
@@ -256,14 +277,39 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
   vsc_plugin_config_free(&config);
 }
 
+// Tool force sensors of this instance: the wrench the intestine exerted on the
+// sensor's body over the last step, torque about the body frame origin.
+static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjtNum* wrench) {
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    int body = m->sensor_objid[s];
+    const mjtNum* w = wrench + 6 * body;
+    mjtNum* out = d->sensordata + m->sensor_adr[s];
+    const mjtNum* com = d->xipos + 3 * body;
+    const mjtNum* origin = d->xpos + 3 * body;
+    double arm[3] = {com[0] - origin[0], com[1] - origin[1], com[2] - origin[2]};
+    out[0] = w[0];
+    out[1] = w[1];
+    out[2] = w[2];
+    out[3] = w[3] + arm[1] * w[2] - arm[2] * w[1];
+    out[4] = w[4] + arm[2] * w[0] - arm[0] * w[2];
+    out[5] = w[5] + arm[0] * w[1] - arm[1] * w[0];
+  }
+}
+
 // Reaction of the intestine on the MuJoCo bodies over the last step, into
-// qfrc_passive (the rod's state is not read: compute has nothing to integrate).
+// qfrc_passive, and the tool force sensors (the rod's state is not read:
+// compute has nothing to integrate).
 static void intestine_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
-  if (capability_bit != mjPLUGIN_PASSIVE) return;
   intestine* it = caches(m, d, instance);
   if (!it) return;
   int n = it->config.rod.control_count;
   const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + wrench_address(n);
+  if (capability_bit == mjPLUGIN_SENSOR) {
+    compute_sensors(m, d, instance, wrench);
+    return;
+  }
+  if (capability_bit != mjPLUGIN_PASSIVE) return;
   for (int body = 1; body < m->nbody; ++body) {
     const mjtNum* w = wrench + 6 * body;
     if (w[0] == 0 && w[1] == 0 && w[2] == 0 && w[3] == 0 && w[4] == 0 && w[5] == 0) continue;
@@ -353,7 +399,9 @@ void vsc_plugin_register_intestine(void) {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = "viscera.intestine";
-  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
+  plugin.capabilityflags |= mjPLUGIN_PASSIVE | mjPLUGIN_SENSOR;
+  plugin.needstage = mjSTAGE_POS;  // sensors read stored wrenches and body poses
+  plugin.nsensordata = intestine_nsensordata;
   plugin.nattribute = vsc_plugin_attribute_count;
   plugin.attributes = vsc_plugin_attributes;
   plugin.nstate = intestine_nstate;

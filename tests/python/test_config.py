@@ -85,9 +85,9 @@ def test_good_config_compiles_with_documented_defaults():
     gut = viscera.intestine(model, "gut")
     assert gut.control_count == 250
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
-    assert gut.sphere_count == 161  # 4 m / 25 mm + 1: neighbours touch
+    assert gut.sphere_count == 321  # 4 m / 12.5 mm + 1: spaced one radius apart
     # positions, velocities, divergence count, a wrench per body, friction state per sphere
-    assert model.plugin_statenum[0] == 6 * 250 + 1 + 6 * model.nbody + 8 * 161
+    assert model.plugin_statenum[0] == 6 * 250 + 1 + 6 * model.nbody + 8 * 321
 
 
 def test_state_size_mismatch_fails_data_creation_instead_of_overflowing():

@@ -100,5 +100,5 @@ def test_intestines_skips_other_plugins_and_reports_resolved_defaults():
     assert [g.name for g in guts] == ["gut"]
     gut = guts[0]
     assert (gut.rest_length, gut.radius, gut.control_count, gut.samples_per_segment) == (2.0, 0.0125, 250, 2)
-    assert gut.sphere_count == 81
+    assert gut.sphere_count == 161
     assert gut.mass == pytest.approx(900 * np.pi * 0.0125**2 * 2.0)

@@ -53,8 +53,8 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
     double along = elongation[0] * n[0] + elongation[1] * n[1] + elongation[2] * n[2];
     for (int a = 0; a < 3; ++a) ft[a] -= k * (elongation[a] - along * n[a]);
   }
-  double magnitude = sqrt(ft[0] * ft[0] + ft[1] * ft[1] + ft[2] * ft[2]), limit = mu * normal;
-  double scale = magnitude > limit ? limit / magnitude : 1.0;
+  double magnitude2 = ft[0] * ft[0] + ft[1] * ft[1] + ft[2] * ft[2], limit = mu * normal;
+  double scale = magnitude2 > limit * limit ? limit / sqrt(magnitude2) : 1.0;  // sqrt only when slipping
   for (int a = 0; a < 3; ++a) f[a] = normal * n[a] + scale * ft[a];
   return normal;
 }
@@ -70,32 +70,85 @@ static void record_touch(double* touch, int partner, double normal, double mu, c
   }
 }
 
-// Grid callback: spheres `earlier` and `item` have overlapping boxes.
+// Closest points P = p0 + s (p1 - p0), Q = q0 + t (q1 - q0) of two segments
+// (Ericson, Real-Time Collision Detection, 5.1.9).
+static void closest_segments(const double* p0, const double* p1, const double* q0, const double* q1, double* s_out,
+                             double* t_out) {
+  double d1[3], d2[3], r[3];
+  for (int a = 0; a < 3; ++a) {
+    d1[a] = p1[a] - p0[a];
+    d2[a] = q1[a] - q0[a];
+    r[a] = p0[a] - q0[a];
+  }
+  double aa = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
+  double e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
+  double f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
+  double s = 0.0, t = 0.0, tiny = 1e-30;
+  if (aa <= tiny && e <= tiny) {
+    s = t = 0.0;
+  } else if (aa <= tiny) {
+    t = fmin(fmax(f / e, 0.0), 1.0);
+  } else {
+    double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
+    if (e <= tiny) {
+      s = fmin(fmax(-c / aa, 0.0), 1.0);
+    } else {
+      double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b;
+      s = denominator > 0.0 ? fmin(fmax((b * f - c * e) / denominator, 0.0), 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = fmin(fmax(-c / aa, 0.0), 1.0);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = fmin(fmax((b - c) / aa, 0.0), 1.0);
+      }
+    }
+  }
+  *s_out = s;
+  *t_out = t;
+}
+
+// Capsule contact of segments a < b (segment k joins spheres k and k + 1).
 static void self_pair(void* context, int earlier, int item) {
   pass* p = (pass*)context;
   vsc_rod* rod = p->rod;
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
-  const double* xa = rod->sphere_xyz + 3 * a;
-  const double* xb = rod->sphere_xyz + 3 * b;
-  double d[3] = {xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]};
+  const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
+  double s, t;
+  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
+  double P[3], Q[3], vp[3], vq[3], d[3];
+  for (int c = 0; c < 3; ++c) {
+    P[c] = (1.0 - s) * x[3 * a + c] + s * x[3 * a + 3 + c];
+    Q[c] = (1.0 - t) * x[3 * b + c] + t * x[3 * b + 3 + c];
+    d[c] = P[c] - Q[c];
+  }
   double distance = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   double depth = 2.0 * rod->def.radius - distance;
   if (!(depth > 0.0)) return;
-  double n[3] = {0.0, 0.0, 1.0};  // coincident centres: any direction separates them
+  double n[3] = {0.0, 0.0, 1.0};  // crossing axes: any direction separates them
   if (distance > 0.0)
     for (int c = 0; c < 3; ++c) n[c] = d[c] / distance;
-  const double* va = rod->sphere_velocity + 3 * a;
-  const double* vb = rod->sphere_velocity + 3 * b;
-  double relative[3] = {va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]};
+  for (int c = 0; c < 3; ++c) {
+    vp[c] = (1.0 - s) * v[3 * a + c] + s * v[3 * a + 3 + c];
+    vq[c] = (1.0 - t) * v[3 * b + c] + t * v[3 * b + 3 + c];
+  }
+  double relative[3] = {vp[0] - vq[0], vp[1] - vq[1], vp[2] - vq[2]};
   const double* stick = p->world->stick ? p->world->stick + VSC_STICK_SIZE * a : NULL;
   const double* elongation = stick && (int)stick[4] == b ? stick + 5 : NULL;
   double f[3], tangent[3], mu = rod->def.self_friction;
   double normal = contact_force(rod, depth, n, relative, mu, elongation, f, tangent);
   if (normal <= 0.0) return;
-  add_at_sphere(rod, a, f, p->Q);
-  double opposite[3] = {-f[0], -f[1], -f[2]};
-  add_at_sphere(rod, b, opposite, p->Q);
+  double share[3];
+  for (int c = 0; c < 3; ++c) share[c] = (1.0 - s) * f[c];
+  add_at_sphere(rod, a, share, p->Q);
+  for (int c = 0; c < 3; ++c) share[c] = s * f[c];
+  add_at_sphere(rod, a + 1, share, p->Q);
+  for (int c = 0; c < 3; ++c) share[c] = -(1.0 - t) * f[c];
+  add_at_sphere(rod, b, share, p->Q);
+  for (int c = 0; c < 3; ++c) share[c] = -t * f[c];
+  add_at_sphere(rod, b + 1, share, p->Q);
   record_touch(rod->touch + VSC_TOUCH_SIZE * a + SELF, b, normal, mu, n, tangent);
   ++p->contacts;
 }
@@ -160,7 +213,7 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   vsc_contact_lists* l = (vsc_contact_lists*)calloc(1, sizeof(vsc_contact_lists));
   if (!l) return NULL;
   l->sphere_count = spheres;
-  l->self_capacity = 64 * spheres;  // dense piles hold ~30 neighbours within 2r + m
+  l->self_capacity = 64 * spheres;  // dense piles hold ~30 neighbouring segments within 2r + m
   l->geom_capacity = 8 * spheres;
   l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
@@ -226,17 +279,36 @@ static void collect_geom(void* context, int i) {
 
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
 
-// One grid pass with spheres inflated by half the margin. Returns 0 if a list
-// overflowed (the caller then evaluates without lists).
+// Grid passes with boxes inflated by half the margin: segments (self pairs),
+// then spheres (geoms). Returns 0 if a list overflowed (the caller then
+// evaluates without lists).
 static int build_lists(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
   l->self_count = l->geom_count = 0;
+  // self pairs: a pass over segment boxes, sized to the longest segment
+  if (rod->def.self_collision) {
+    double longest = 0.0;
+    for (int k = 0; k + 1 < spheres; ++k)
+      for (int a = 0; a < 3; ++a)
+        longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
+    vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+    for (int k = 0; k + 1 < spheres; ++k) {
+      const double* x0 = rod->sphere_xyz + 3 * k;
+      const double* x1 = x0 + 3;
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = fmin(x0[a], x1[a]) - inflated;
+        hi[a] = fmax(x0[a], x1[a]) + inflated;
+      }
+      vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+    }
+  }
+  // spheres, for the geoms
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
-  vsc_pair_fn pair = rod->def.self_collision ? collect_self : no_pair;
   for (int i = 0; i < spheres; ++i) {
     const double* x = rod->sphere_xyz + 3 * i;
     double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
@@ -245,7 +317,7 @@ static int build_lists(vsc_rod* rod, const vsc_world* world) {
       rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
       rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
     }
-    vsc_grid_insert(rod->grid, i, lo, hi, pair, &b);  // finite boxes under a cell: cannot fail
+    vsc_grid_insert(rod->grid, i, lo, hi, no_pair, &b);
   }
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
@@ -321,8 +393,8 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
   if (!lists_valid(rod, world) && !build_lists(rod, world)) {
     // a list overflowed (an extreme pile): this evaluation tests everything directly
     l->built = 0;
-    for (int a = 0; a < spheres && rod->def.self_collision; ++a)
-      for (int b = a + rod->self_gap; b < spheres; ++b) self_pair(&p, a, b);
+    for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(&p, a, b);
     for (int g = 0; g < world->geom_count; ++g) {
       p.geom = g;
       for (int i = 0; i < spheres; ++i) sphere_geom(&p, i);

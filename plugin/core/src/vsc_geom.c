@@ -62,6 +62,14 @@ static double box_distance(const double l[3], const double h[3], double n[3]) {
 
 double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal[3]) {
   double l[3], n[3], d;
+  if (g->type == VSC_GEOM_PLANE) {  // the common floor: one dot product with the local z axis
+    const double* R = g->rotation;
+    normal[0] = R[2];
+    normal[1] = R[5];
+    normal[2] = R[8];
+    return (point[0] - g->position[0]) * R[2] + (point[1] - g->position[1]) * R[5] +
+           (point[2] - g->position[2]) * R[8];
+  }
   to_local(g, point, l);
   switch (g->type) {
     case VSC_GEOM_PLANE:
@@ -92,6 +100,10 @@ double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal
 }
 
 void vsc_geom_point_velocity(const vsc_geom* g, const double p[3], double v[3]) {
+  if (g->is_static) {
+    v[0] = v[1] = v[2] = 0.0;
+    return;
+  }
   double r[3] = {p[0] - g->position[0], p[1] - g->position[1], p[2] - g->position[2]};
   const double* w = g->angular_velocity;
   v[0] = g->linear_velocity[0] + w[1] * r[2] - w[2] * r[1];

@@ -31,7 +31,7 @@ vsc_rod_def vsc_default_rod_def(void) {
 }
 
 int vsc_default_collision_sphere_count(double length, double radius) {
-  double count = ceil(length / (2.0 * radius) - 1e-9) + 1.0;  // in double: no int overflow
+  double count = ceil(length / radius - 1e-9) + 1.0;  // in double: no int overflow
   return isfinite(count) && count <= VSC_MAX_COLLISION_SPHERES ? (int)count : -1;
 }
 
@@ -177,11 +177,11 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
   build_gather(rod);
-  // self-contact exclusion: pairs closer along the rest axis than pi r (the
-  // arc of the tightest fold, whose centre line has radius r) are neighbours
+  // self-contact exclusion: segments whose nearest points are closer along
+  // the rest axis than pi r (the arc of the tightest fold, whose centre line
+  // has radius r) are neighbours: collide when (b - a - 1) spacing >= pi r
   double sphere_spacing = def->length / (double)(spheres - 1);
-  rod->self_gap = (int)ceil(VSC_PI * def->radius / sphere_spacing - 1e-9);
-  if (rod->self_gap < 1) rod->self_gap = 1;
+  rod->self_gap = (int)ceil(VSC_PI * def->radius / sphere_spacing - 1e-9) + 1;
   assemble_mass(rod);
   status = factor_mass(rod);
   if (status != VSC_OK) {

@@ -14,12 +14,19 @@
 // the sphere's abscissa through the spline basis (virtual work); the partner
 // (geom or sphere) receives the opposite force.
 //
-// Self-collision: spheres i and j never collide when |i - j| < rod->self_gap,
-// the smallest index gap whose rest arc length reaches pi r. The tightest fold
-// of a tube of radius r has a centre line of radius r, so its U-turn spans
-// pi r of arc: pairs beyond that (the fold's two legs) still collide, while on
-// a straight tube such pairs are at least pi r > 2r apart, so it starts with
-// no self-contact.
+// Self-collision takes the tube's cylindrical shape into account (the paper's
+// own suggested improvement, section 5): segment k joins sphere centres k and
+// k + 1, and two segments collide as capsules of radius r (exact closest
+// points of two segments). Between sphere centres two crossing tubes thus
+// cannot sink into each other, as bare spheres would let them (down to
+// sqrt(3.5) r apart at one-radius spacing). The force at the closest points is
+// split linearly onto the segments' end spheres, then through the spline basis.
+// Neighbours: segments a < b never collide when their nearest points are
+// closer along the rest axis than pi r, (b - a - 1) spacing < pi r. The
+// tightest fold of a tube of radius r has a centre line of radius r, so its
+// U-turn spans pi r of arc: pairs beyond that (the fold's legs) still collide,
+// while on a straight tube they are at least pi r > 2r apart, so it starts
+// with no self-contact.
 //
 // Friction (regularised Coulomb): each contact has a tangential stick spring
 // of stiffness k and damping c, F_t = -k delta - c v_t, limited to mu f_n. The
@@ -34,7 +41,8 @@
 #include "viscera/vsc_rod.h"
 
 /// Friction state per sphere: rigid partner (geom index, -1 none), its
-/// elongation (m, 3), self partner (sphere index, -1 none), its elongation (m, 3).
+/// elongation (m, 3), self partner of the segment starting at this sphere
+/// (segment index, -1 none), its elongation (m, 3).
 #define VSC_STICK_SIZE 8
 
 /// Per sphere record of the last evaluation's strongest contacts (rigid, then

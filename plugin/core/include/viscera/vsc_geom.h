@@ -23,6 +23,7 @@ typedef struct vsc_geom {
   double angular_velocity[3];  ///< angular velocity (rad/s)
   double box[6];               ///< world-frame bounding box, min then max (m); ignored when unbounded
   double friction;             ///< Coulomb coefficient of the intestine against this geom (>= 0)
+  int is_static;               ///< 1: never moves (its velocities are ignored)
 } vsc_geom;
 
 /// Signed distance (m) from world point `point` to the geom surface, negative

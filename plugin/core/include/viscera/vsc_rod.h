@@ -56,8 +56,12 @@ typedef struct vsc_rod_def {
 /// Defaults: a 4 m, 250-point, 12.5 mm-radius intestine of density 1000 kg/m^3.
 vsc_rod_def vsc_default_rod_def(void);
 
-/// Collision spheres needed for neighbours of radius `radius` (m) to touch
-/// along `length` (m): ceil(length / (2 radius)) + 1, or -1 past VSC_MAX_COLLISION_SPHERES.
+/// Default collision spheres along `length` (m) for radius `radius` (m):
+/// ceil(length / radius) + 1, a spacing of at most one radius, so neighbours
+/// overlap by half. At the 2 r spacing where neighbours just touch, a crossing
+/// tube sinks between spheres until the axes are sqrt(2) r apart and the axis
+/// sags 0.3 r between supports; at r spacing the worst crossing keeps the axes
+/// sqrt(3.5) r = 1.87 r apart. Returns -1 past VSC_MAX_COLLISION_SPHERES.
 int vsc_default_collision_sphere_count(double length, double radius);
 
 /// A rod: the definition plus caches derived from it. Owns all its arrays.
@@ -98,7 +102,7 @@ typedef struct vsc_rod {
   double* stage;             ///< integrator stages (8 x 3n)
   vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
   vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
-  int self_gap;              ///< spheres closer than this many indices never collide (see vsc_contact.h)
+  int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
   double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
 } vsc_rod;
