@@ -33,9 +33,14 @@ typedef struct intestine {
   vsc_geom* geoms;        // their world description, refreshed each call (geom_count)
   int geom_count;
   double* geom_wrench;    // reaction on each geom, averaged over a step (6 x geom_count)
+  vsc_convex* convex;     // hulls of mesh geoms (geom_count, face_count 0 elsewhere)
+  vsc_heightfield* heightfield;  // height fields (geom_count)
   int warned_passive_off; // the passive-off warning was given for this data
 } intestine;
 
+// Every MuJoCo geom type collides: meshes as their convex hull (exact
+// distance), height fields by vertical distance, SDF geoms as their bounding
+// sphere (the paper's sphere approximation: an SDF plugin's distance is dear).
 static vsc_geom_type geom_type(int mujoco_type, int* supported) {
   *supported = 1;
   switch (mujoco_type) {
@@ -44,12 +49,74 @@ static vsc_geom_type geom_type(int mujoco_type, int* supported) {
     case mjGEOM_CAPSULE: return VSC_GEOM_CAPSULE;
     case mjGEOM_CYLINDER: return VSC_GEOM_CYLINDER;
     case mjGEOM_BOX: return VSC_GEOM_BOX;
+    case mjGEOM_ELLIPSOID: return VSC_GEOM_ELLIPSOID;
+    case mjGEOM_MESH: return VSC_GEOM_CONVEX;
+    case mjGEOM_HFIELD: return VSC_GEOM_HEIGHTFIELD;
+    case mjGEOM_SDF: return VSC_GEOM_SPHERE;
     default: *supported = 0; return VSC_GEOM_PLANE;
   }
 }
 
+// The convex hull of a mesh as outward face planes and triangles, from
+// MuJoCo's hull graph (numvert, numface, vert_edgeadr, vert_globalid,
+// edge_localid, face_globalid), or from the mesh faces if it has none.
+static int build_convex(const mjModel* m, int mesh, vsc_convex* out) {
+  const float* vert = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+  const int* faces;
+  int count;
+  if (m->mesh_graphadr[mesh] >= 0) {
+    const int* graph = m->mesh_graph + m->mesh_graphadr[mesh];
+    int numvert = graph[0];
+    count = graph[1];
+    faces = graph + 2 + numvert + numvert + (numvert + 3 * count);
+  } else {
+    count = m->mesh_facenum[mesh];
+    faces = m->mesh_face + 3 * m->mesh_faceadr[mesh];
+  }
+  double* planes = (double*)malloc(sizeof(double) * 4 * (size_t)(count > 0 ? count : 1));
+  double* triangles = (double*)malloc(sizeof(double) * 9 * (size_t)(count > 0 ? count : 1));
+  if (!planes || !triangles) {
+    free(planes);
+    free(triangles);
+    return -1;
+  }
+  double centre[3] = {0, 0, 0};
+  for (int f = 0; f < count; ++f)
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) centre[a] += vert[3 * faces[3 * f + k] + a] / (3.0 * count);
+  int kept = 0;
+  for (int f = 0; f < count; ++f) {
+    double* t = triangles + 9 * kept;
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) t[3 * k + a] = vert[3 * faces[3 * f + k] + a];
+    double u[3], v[3], n[3];
+    for (int a = 0; a < 3; ++a) { u[a] = t[3 + a] - t[a]; v[a] = t[6 + a] - t[a]; }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    double norm = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(norm > 0.0)) continue;  // degenerate face
+    double out_side = n[0] * (t[0] - centre[0]) + n[1] * (t[1] - centre[1]) + n[2] * (t[2] - centre[2]);
+    double sign = out_side < 0.0 ? -1.0 : 1.0;  // orient outwards
+    double* pl = planes + 4 * kept;
+    for (int a = 0; a < 3; ++a) pl[a] = sign * n[a] / norm;
+    pl[3] = pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2];
+    ++kept;
+  }
+  out->face_count = kept;
+  out->planes = planes;
+  out->triangles = triangles;
+  return 0;
+}
+
 static void intestine_free(intestine* it) {
   if (!it) return;
+  for (int i = 0; it->convex && i < it->geom_count; ++i) {
+    free((void*)it->convex[i].planes);
+    free((void*)it->convex[i].triangles);
+  }
+  free(it->convex);
+  free(it->heightfield);
   vsc_rod_destroy(it->rod);
   vsc_plugin_config_free(&it->config);
   free(it->initial_q);
@@ -93,6 +160,28 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     geom_type(m->geom_type[g], &supported);
     int filtered = (m->geom_contype[g] & INTESTINE_CONAFFINITY) || (m->geom_conaffinity[g] & INTESTINE_CONTYPE);
     if (supported && filtered) it->geom_ids[it->geom_count++] = g;
+  }
+  it->convex = (vsc_convex*)calloc((size_t)(it->geom_count > 0 ? it->geom_count : 1), sizeof(vsc_convex));
+  it->heightfield = (vsc_heightfield*)calloc((size_t)(it->geom_count > 0 ? it->geom_count : 1), sizeof(vsc_heightfield));
+  if (!it->convex || !it->heightfield) {
+    strcpy(error, "viscera.intestine: out of memory");
+    intestine_free(it);
+    return NULL;
+  }
+  for (int i = 0; i < it->geom_count; ++i) {
+    int g = it->geom_ids[i], data = m->geom_dataid[g];
+    if (m->geom_type[g] == mjGEOM_MESH && data >= 0 && build_convex(m, data, &it->convex[i])) {
+      strcpy(error, "viscera.intestine: out of memory");
+      intestine_free(it);
+      return NULL;
+    }
+    if (m->geom_type[g] == mjGEOM_HFIELD && data >= 0) {
+      vsc_heightfield* h = &it->heightfield[i];
+      h->rows = m->hfield_nrow[data];
+      h->columns = m->hfield_ncol[data];
+      h->elevation = m->hfield_data + m->hfield_adr[data];
+      for (int a = 0; a < 4; ++a) h->size[a] = m->hfield_size[4 * data + a];
+    }
   }
   return it;
 }
@@ -156,6 +245,9 @@ static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
     }
     for (int c = 0; c < 9; ++c) out->rotation[c] = d->geom_xmat[9 * g + c];
     out->bound_radius = m->geom_type[g] == mjGEOM_PLANE ? 0.0 : m->geom_rbound[g];
+    out->convex = &it->convex[i];
+    out->heightfield = &it->heightfield[i];
+    if (m->geom_type[g] == mjGEOM_SDF) out->size[0] = m->geom_rbound[g];  // bounding sphere
     out->friction = it->config.friction >= 0.0 ? it->config.friction : m->geom_friction[3 * g];
     const mjtNum* aabb = m->geom_aabb + 6 * g;  // local centre and half sizes
     for (int a = 0; a < 3; ++a) {

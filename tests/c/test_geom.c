@@ -51,8 +51,58 @@ static void rotated_and_moving(void) {
   ENSURE_NEAR(v[1], 0.0, 1e-15);
 }
 
+
+// A 2 x 2 x 2 cube as a convex polytope: 12 triangles with outward planes.
+static void cube_polytope(double planes[48], double triangles[108]) {
+  static const int quads[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+  double v[8][3];
+  for (int i = 0; i < 8; ++i) {
+    v[i][0] = (i & 4) ? 1 : -1;
+    v[i][1] = (i & 2) ? 1 : -1;
+    v[i][2] = (i & 1) ? 1 : -1;
+  }
+  for (int q = 0; q < 6; ++q) {
+    double centre[3] = {0, 0, 0};
+    for (int k = 0; k < 4; ++k)
+      for (int a = 0; a < 3; ++a) centre[a] += v[quads[q][k]][a] / 4.0;
+    for (int half = 0; half < 2; ++half) {
+      int f = 2 * q + half, idx[3] = {quads[q][0], quads[q][1 + half], quads[q][2 + half]};
+      for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 3; ++a) triangles[9 * f + 3 * k + a] = v[idx[k]][a];
+      for (int a = 0; a < 3; ++a) planes[4 * f + a] = centre[a];  // the face centre is its unit normal
+      planes[4 * f + 3] = 1.0;
+    }
+  }
+}
+
+static void new_primitives(void) {
+  vsc_geom ellipsoid = make(VSC_GEOM_ELLIPSOID, 1, 2, 3);
+  check(&ellipsoid, 0, 0, 4, 1, 0, 0, 1);     // on an axis: exact
+  check(&ellipsoid, 0, 1.5, 0, -0.5, 0, 1, 0);
+  double planes[48], triangles[108];
+  cube_polytope(planes, triangles);
+  vsc_convex cube = {12, planes, triangles};
+  vsc_geom convex = make(VSC_GEOM_CONVEX, 0, 0, 0);
+  convex.convex = &cube;
+  check(&convex, 0, 0, 0.75, -0.25, 0, 0, 1);  // inside: nearest face
+  check(&convex, 0.2, 0.3, 3, 2, 0, 0, 1);     // over a face
+  check(&convex, 4, 5, 0, 5, 0.6, 0.8, 0);     // over an edge: exact, not the planes' 4
+  double p[3] = {2, 2, 2}, n[3];
+  ENSURE_NEAR(vsc_geom_distance(&convex, p, n), sqrt(3.0), 1e-12);  // corner
+  float flat[4] = {0.5f, 0.5f, 0.5f, 0.5f}, slope[4] = {0.0f, 1.0f, 0.0f, 1.0f};  // rising along x
+  vsc_heightfield field = {2, 2, flat, {1, 1, 2, 0.5}};
+  vsc_geom heightfield = make(VSC_GEOM_HEIGHTFIELD, 0, 0, 0);
+  heightfield.heightfield = &field;
+  check(&heightfield, 0.3, -0.2, 1.25, 0.25, 0, 0, 1);  // 0.25 above the flat surface at 1
+  double outside[3] = {1.5, 0, 1};
+  ENSURE(isinf(vsc_geom_distance(&heightfield, outside, n)));
+  field.elevation = slope;  // z = x + 1 over [-1, 1]: 45 degrees
+  check(&heightfield, 0, 0, 2, 1 / sqrt(2.0), -1 / sqrt(2.0), 0, 1 / sqrt(2.0));
+}
+
 int main(void) {
   RUN(primitives);
   RUN(rotated_and_moving);
+  RUN(new_primitives);
   TEST_MAIN_END();
 }

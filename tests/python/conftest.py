@@ -6,14 +6,14 @@ import pytest
 import viscera
 
 
-def scene_xml(body: str = "", options: str = 'timestep="0.002"', name: str = "gut", **config) -> str:
-    """An MJCF model with one intestine (config as keyword arguments) and extra worldbody XML."""
-    return (f"<mujoco><option {options}/>{viscera.extension_xml(name, **config)}"
+def scene_xml(body: str = "", options: str = 'timestep="0.002"', name: str = "gut", assets: str = "", **config) -> str:
+    """An MJCF model with one intestine (config as keyword arguments), extra worldbody and asset XML."""
+    return (f"<mujoco><option {options}/><asset>{assets}</asset>{viscera.extension_xml(name, **config)}"
             f"<worldbody>{body}</worldbody></mujoco>")
 
 
-def compile_scene(body: str = "", options: str = 'timestep="0.002"', **config):
-    model = mujoco.MjModel.from_xml_string(scene_xml(body, options, **config))
+def compile_scene(body: str = "", options: str = 'timestep="0.002"', assets: str = "", **config):
+    model = mujoco.MjModel.from_xml_string(scene_xml(body, options, assets=assets, **config))
     return model, mujoco.MjData(model), viscera.intestine(model)
 
 

@@ -13,12 +13,19 @@ GEOMS = {
     "capsule": '<geom type="capsule" size="0.05 0.3" pos="0 0 0.05" euler="90 0 0"/>',
     "cylinder": '<geom type="cylinder" size="0.1 0.05" pos="0 0 0.05"/>',
     "box": '<geom type="box" size="0.1 0.1 0.05" pos="0 0 0.05"/>',
+    "ellipsoid": '<geom type="ellipsoid" size="0.15 0.2 0.1" pos="0 0 0"/>',
+    "mesh": '<geom type="mesh" mesh="slab" pos="0 0 0.05"/>',
+    "hfield": '<geom type="hfield" hfield="ground" pos="0 0 0.1"/>',  # MuJoCo normalises a flat field to 0
 }
+# a convex slab mesh (as a box of 0.1 x 0.1 x 0.05 half sizes) and a flat height field
+ASSETS = ('<mesh name="slab" vertex="-.1 -.1 -.05  .1 -.1 -.05  -.1 .1 -.05  .1 .1 -.05  '
+          '-.1 -.1 .05  .1 -.1 .05  -.1 .1 .05  .1 .1 .05"/>'
+          '<hfield name="ground" nrow="3" ncol="3" size="0.3 0.3 0.1 0.05" elevation="1 1 1 1 1 1 1 1 1"/>')
 
 
 @pytest.mark.parametrize("kind", sorted(GEOMS))
 def test_rests_on_each_geom_type(kind):
-    model, data, gut = compile_scene(GEOMS[kind], length=0.4, control_points=30, damping=3,
+    model, data, gut = compile_scene(GEOMS[kind], assets=ASSETS, length=0.4, control_points=30, damping=3,
                                      shape="line", start=[-0.2, 0, 0.3], direction=[1, 0, 0])
     while data.time < 1.5:
         mujoco.mj_step(model, data)

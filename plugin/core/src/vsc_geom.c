@@ -60,6 +60,111 @@ static double box_distance(const double l[3], const double h[3], double n[3]) {
   return q[axis];
 }
 
+// Ellipsoid: d = k0 (k0 - 1) / k1 with k0 = |p / s|, k1 = |p / s^2| (a first-order
+// distance estimate, exact on the axes and on the surface), normal along p / s^2.
+static double ellipsoid_distance(const double l[3], const double s[3], double n[3]) {
+  double a[3] = {l[0] / s[0], l[1] / s[1], l[2] / s[2]};
+  double b[3] = {a[0] / s[0], a[1] / s[1], a[2] / s[2]};
+  double k0 = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  double k1 = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  if (!(k1 > 0.0)) {  // the centre: leave along the shortest semi-axis
+    int axis = s[0] <= s[1] && s[0] <= s[2] ? 0 : (s[1] <= s[2] ? 1 : 2);
+    n[0] = n[1] = n[2] = 0.0;
+    n[axis] = 1.0;
+    return -s[axis];
+  }
+  for (int i = 0; i < 3; ++i) n[i] = b[i] / k1;
+  return k0 * (k0 - 1.0) / k1;
+}
+
+// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+static void closest_on_triangle(const double* p, const double* a, const double* b, const double* c, double* out) {
+  double ab[3], ac[3], ap[3];
+  for (int i = 0; i < 3; ++i) { ab[i] = b[i] - a[i]; ac[i] = c[i] - a[i]; ap[i] = p[i] - a[i]; }
+#define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
+  double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
+  if (d1 <= 0.0 && d2 <= 0.0) { for (int i = 0; i < 3; ++i) out[i] = a[i]; return; }
+  double bp[3];
+  for (int i = 0; i < 3; ++i) bp[i] = p[i] - b[i];
+  double d3 = DOT(ab, bp), d4 = DOT(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) { for (int i = 0; i < 3; ++i) out[i] = b[i]; return; }
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    double v = d1 / (d1 - d3);
+    for (int i = 0; i < 3; ++i) out[i] = a[i] + v * ab[i];
+    return;
+  }
+  double cp[3];
+  for (int i = 0; i < 3; ++i) cp[i] = p[i] - c[i];
+  double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) { for (int i = 0; i < 3; ++i) out[i] = c[i]; return; }
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    double w = d2 / (d2 - d6);
+    for (int i = 0; i < 3; ++i) out[i] = a[i] + w * ac[i];
+    return;
+  }
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    for (int i = 0; i < 3; ++i) out[i] = b[i] + w * (c[i] - b[i]);
+    return;
+  }
+  double denominator = 1.0 / (va + vb + vc), v = vb * denominator, w = vc * denominator;
+  for (int i = 0; i < 3; ++i) out[i] = a[i] + ab[i] * v + ac[i] * w;
+#undef DOT
+}
+
+// Convex polytope: inside, the nearest face plane (exact); outside, the
+// nearest point of its faces (exact).
+static double convex_distance(const vsc_convex* c, const double l[3], double n[3]) {
+  int best = 0;
+  double inside = -INFINITY;
+  for (int f = 0; f < c->face_count; ++f) {
+    const double* pl = c->planes + 4 * f;
+    double d = pl[0] * l[0] + pl[1] * l[1] + pl[2] * l[2] - pl[3];
+    if (d > inside) { inside = d; best = f; }
+  }
+  if (inside <= 0.0) {
+    for (int i = 0; i < 3; ++i) n[i] = c->planes[4 * best + i];
+    return inside;
+  }
+  double nearest2 = INFINITY, nearest[3] = {0, 0, 0};
+  for (int f = 0; f < c->face_count; ++f) {
+    const double* t = c->triangles + 9 * f;
+    double q[3];
+    closest_on_triangle(l, t, t + 3, t + 6, q);
+    double d2 = (l[0] - q[0]) * (l[0] - q[0]) + (l[1] - q[1]) * (l[1] - q[1]) + (l[2] - q[2]) * (l[2] - q[2]);
+    if (d2 < nearest2) { nearest2 = d2; nearest[0] = q[0]; nearest[1] = q[1]; nearest[2] = q[2]; }
+  }
+  double d = sqrt(nearest2);
+  for (int i = 0; i < 3; ++i) n[i] = d > 0.0 ? (l[i] - nearest[i]) / d : c->planes[4 * best + i];
+  return d;
+}
+
+// Height field: bilinear surface z = h(x, y); distance (z - h) n_z along the
+// surface normal n ~ (-dh/dx, -dh/dy, 1). Outside its x-y extent or below its
+// base there is no contact.
+static double heightfield_distance(const vsc_heightfield* h, const double l[3], double n[3]) {
+  n[0] = 0.0; n[1] = 0.0; n[2] = 1.0;
+  double fx = (l[0] + h->size[0]) / (2.0 * h->size[0]) * (h->columns - 1);
+  double fy = (l[1] + h->size[1]) / (2.0 * h->size[1]) * (h->rows - 1);
+  if (!(fx >= 0.0 && fy >= 0.0 && fx <= h->columns - 1 && fy <= h->rows - 1) || l[2] < -h->size[3]) return INFINITY;
+  int c0 = (int)fx, r0 = (int)fy;
+  if (c0 > h->columns - 2) c0 = h->columns - 2;
+  if (r0 > h->rows - 2) r0 = h->rows - 2;
+  double u = fx - c0, v = fy - r0, top = h->size[2];
+  const float* e = h->elevation;
+  double z00 = top * e[r0 * h->columns + c0], z10 = top * e[r0 * h->columns + c0 + 1];
+  double z01 = top * e[(r0 + 1) * h->columns + c0], z11 = top * e[(r0 + 1) * h->columns + c0 + 1];
+  double height = (1 - u) * (1 - v) * z00 + u * (1 - v) * z10 + (1 - u) * v * z01 + u * v * z11;
+  double dx = ((1 - v) * (z10 - z00) + v * (z11 - z01)) * (h->columns - 1) / (2.0 * h->size[0]);
+  double dy = ((1 - u) * (z01 - z00) + u * (z11 - z10)) * (h->rows - 1) / (2.0 * h->size[1]);
+  double norm = sqrt(dx * dx + dy * dy + 1.0);
+  n[0] = -dx / norm; n[1] = -dy / norm; n[2] = 1.0 / norm;
+  return (l[2] - height) / norm;
+}
+
 double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal[3]) {
   double l[3], n[3], d;
   if (g->type == VSC_GEOM_PLANE) {  // the common floor: one dot product with the local z axis
@@ -91,7 +196,19 @@ double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal
     case VSC_GEOM_BOX:
       d = box_distance(l, g->size, n);
       break;
-    default:  // unknown type: never in contact
+    case VSC_GEOM_ELLIPSOID:
+      d = ellipsoid_distance(l, g->size, n);
+      break;
+    case VSC_GEOM_CONVEX:
+      if (!g->convex || g->convex->face_count < 1) goto never;
+      d = convex_distance(g->convex, l, n);
+      break;
+    case VSC_GEOM_HEIGHTFIELD:
+      if (!g->heightfield || g->heightfield->rows < 2 || g->heightfield->columns < 2) goto never;
+      d = heightfield_distance(g->heightfield, l, n);
+      break;
+    default:
+    never:  // unknown or empty: never in contact
       normal[0] = 0.0; normal[1] = 0.0; normal[2] = 1.0;
       return INFINITY;
   }

@@ -10,7 +10,26 @@ typedef enum vsc_geom_type {
   VSC_GEOM_CAPSULE = 2,   ///< size[0] radius, size[1] half-length along local z (m)
   VSC_GEOM_CYLINDER = 3,  ///< size[0] radius, size[1] half-height along local z (m)
   VSC_GEOM_BOX = 4,       ///< size[0..2] half-extents along local x, y, z (m)
+  VSC_GEOM_ELLIPSOID = 5, ///< size[0..2] semi-axes (m); distance approximate, exact on the axes
+  VSC_GEOM_CONVEX = 6,    ///< convex polytope in `convex` (a mesh's hull): exact distance
+  VSC_GEOM_HEIGHTFIELD = 7,  ///< `heightfield`: vertical distance to the bilinear surface along its normal
 } vsc_geom_type;
+
+/// Convex polytope, local frame (host-owned): outward face planes n . x = offset
+/// and the faces' triangles, used outside for the exact closest point.
+typedef struct vsc_convex {
+  int face_count;
+  const double* planes;     ///< n x, n y, n z, offset (m) per face (4 x face_count)
+  const double* triangles;  ///< 3 vertices per face (m, 9 x face_count)
+} vsc_convex;
+
+/// Height field, local frame (host-owned): heights over [-size[0], size[0]] x
+/// [-size[1], size[1]], rows along y, columns along x (MuJoCo's layout).
+typedef struct vsc_heightfield {
+  int rows, columns;
+  const float* elevation;   ///< rows x columns values in [0, 1], times size[2] (m)
+  double size[4];           ///< half x, half y, top elevation, base depth (m)
+} vsc_heightfield;
 
 /// One rigid geom, world frame. Owned by the host.
 typedef struct vsc_geom {
@@ -24,6 +43,8 @@ typedef struct vsc_geom {
   double box[6];               ///< world-frame bounding box, min then max (m); ignored when unbounded
   double friction;             ///< Coulomb coefficient of the intestine against this geom (>= 0)
   int is_static;               ///< 1: never moves (its velocities are ignored)
+  const vsc_convex* convex;    ///< VSC_GEOM_CONVEX only
+  const vsc_heightfield* heightfield;  ///< VSC_GEOM_HEIGHTFIELD only
 } vsc_geom;
 
 /// Signed distance (m) from world point `point` to the geom surface, negative
