@@ -47,6 +47,9 @@ def load() -> pathlib.Path:
                 ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
             _ctypes_library.viscera_intestine_info.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_info.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
+            _ctypes_library.viscera_collision_pass_seconds.restype = ctypes.c_double
+            _ctypes_library.viscera_collision_pass_seconds.argtypes = [
+                ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_int)]
             _loaded = path
         return _loaded
 

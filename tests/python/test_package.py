@@ -71,9 +71,12 @@ def test_cli_rejects_bad_duration(tmp_path):
 def test_benchmark_runs_both_peers(tmp_path):
     from viscera import bench
     result = bench.run(duration=0.05, runs=1, quiet=True)
-    assert set(result["peers"]) == {"viscera", "flexcomp"}
+    assert set(result["peers"]) == {"viscera", "viscera_noself", "flexcomp", "flexcomp_self"}
     for peer in result["peers"].values():
         assert np.isfinite(peer["wall_s_per_sim_s_median"]) and peer["wall_s_per_sim_s_median"] > 0
+    # the piled chains really are piles: contacts grow in proportion to the spheres
+    rows = result["collision_pass"]["rows"]
+    assert rows[-1]["contacts"] > rows[0]["contacts"] * rows[-1]["spheres"] / rows[0]["spheres"] / 3
 
 
 def test_dm_control_render_shows_the_intestine():

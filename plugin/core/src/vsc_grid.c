@@ -13,7 +13,7 @@ vsc_status vsc_grid_create(int max_items, vsc_grid** out) {
   vsc_grid* g = (vsc_grid*)calloc(1, sizeof(vsc_grid));
   if (!g) return VSC_ERROR_OUT_OF_MEMORY;
   int buckets = 16;
-  while (buckets < 16 * max_items) buckets *= 2;  // load factor <= 1/2 at 8 entries per item
+  while (buckets < 8 * max_items) buckets *= 2;  // about one entry per bucket: short chains, small table
   g->max_items = max_items;
   g->bucket_mask = buckets - 1;
   g->entry_capacity = 8 * max_items;
