@@ -12,6 +12,8 @@
 2. The collision pass (paper 3.3.1) against the number of spheres, 250 to
    8000 piled at constant density: the slope of log time against log n (1 is
    linear).
+3. What each scale costs: the same fall for intestines of 2, 4, 8 and 16 m at
+   the default resolution (62.5 control points and 80 collision spheres per m).
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ def _direction() -> np.ndarray:
     return np.array([np.cos(TILT), 0.0, np.sin(TILT)])
 
 
-def viscera_xml(self_collision: int = 1) -> str:
-    extension = viscera.extension_xml("intestine", length=LENGTH, control_points=POINTS, radius=RADIUS,
+def viscera_xml(self_collision: int = 1, length: float = LENGTH, points: int = POINTS) -> str:
+    extension = viscera.extension_xml("intestine", length=length, control_points=points, radius=RADIUS,
                                       shape="line", start=START, direction=_direction(), self_collision=self_collision)
     return f'<mujoco><option timestep="0.002"/>{extension}<worldbody>{FLOOR}</worldbody></mujoco>'
 
@@ -112,19 +114,41 @@ def collision_pass_scaling(sizes=SCALING_SIZES, repeats: int = 20) -> dict:
     return {"rows": rows, "slope": slope, "slope_from_1000": slope_large}
 
 
-def time_one(name: str, duration: float) -> dict:
-    """Simulate one peer for `duration` s; wall time of stepping only."""
-    make_xml, axis = PEERS[name]
-    model = mujoco.MjModel.from_xml_string(make_xml())
+SCALES_M = (2.0, 4.0, 8.0, 16.0)
+
+
+def scale_costs(duration: float, runs: int) -> list[dict]:
+    """Wall seconds per simulated second of the fall against the intestine's length."""
+    rows = []
+    for length in SCALES_M:
+        points = int(round(POINTS * length / LENGTH))
+        walls = []
+        for _ in range(runs):
+            model = mujoco.MjModel.from_xml_string(viscera_xml(length=length, points=points))
+            walls.append(_time_model(model, duration)[0])
+        rows.append({"length_m": length, "control_points": points,
+                     "collision_spheres": viscera.intestine(model).sphere_count,
+                     "wall_s_per_sim_s_median": statistics.median(walls)})
+    return rows
+
+
+def _time_model(model: mujoco.MjModel, duration: float):
     data = mujoco.MjData(model)
     steps = int(round(duration / model.opt.timestep))
     start = time.perf_counter()
     for _ in range(steps):
         mujoco.mj_step(model, data)
-    wall = time.perf_counter() - start
+    return (time.perf_counter() - start) / data.time, data
+
+
+def time_one(name: str, duration: float) -> dict:
+    """Simulate one peer for `duration` s; wall time of stepping only."""
+    make_xml, axis = PEERS[name]
+    model = mujoco.MjModel.from_xml_string(make_xml())
+    wall_per_sim, data = _time_model(model, duration)
     points = axis(model, data)
     length = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
-    return {"wall_per_sim": wall / data.time, "length_error": length / LENGTH - 1.0,
+    return {"wall_per_sim": wall_per_sim, "length_error": length / LENGTH - 1.0,
             "lowest_z": float(points[:, 2].min()), "timestep": model.opt.timestep}
 
 
@@ -147,6 +171,7 @@ def run(duration: float = 5.0, runs: int = 3, quiet: bool = False) -> dict:
     result["speedup_vs_flexcomp_selfcollide"] = result["peers"]["flexcomp_self"]["wall_s_per_sim_s_median"] / ours
     result["speedup_vs_flexcomp"] = result["peers"]["flexcomp"]["wall_s_per_sim_s_median"] / ours
     result["collision_pass"] = collision_pass_scaling()
+    result["scales"] = scale_costs(min(duration, 2.0), runs)
     return result
 
 
@@ -193,6 +218,10 @@ def main(argv: list[str] | None = None) -> int:
               f"({row['seconds'] * 1e9 / row['spheres']:.0f} ns per sphere), {row['contacts']} overlapping pairs")
     print(f"  slope of log time vs log spheres: {scaling['slope']:.2f} over all sizes, "
           f"{scaling['slope_from_1000']:.2f} from 1000 spheres (1 = linear)")
+    print(f"what each scale costs (the same fall, {min(args.duration, 2.0):g} s, median of {args.runs}):")
+    for row in result["scales"]:
+        print(f"  {row['length_m']:4.0f} m, {row['control_points']:4d} control points, {row['collision_spheres']:4d} spheres: "
+              f"{row['wall_s_per_sim_s_median']:.3f} wall s / sim s")
     if args.plot:
         plot_scaling(scaling, args.plot)
         print(f"  figure: {args.plot}")
