@@ -237,11 +237,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   failed =
       read_positive(&r, "radius_max", d->radius, &c->radius_max, "m") ||
       read_positive(&r, "radius_min", c->radius_max, &c->radius_min, "m") ||
-      // defaults describe one material whatever the length: stiffness x length is constant
+      // the springs' defaults describe one material at any length (stiffness x
+      // length constant); the global term is a length regulator acting on the
+      // end points, so scaling it up for short intestines would only make them
+      // unstable: its default does not scale
       read_nonnegative(&r, "stretch_stiffness", d->stretch_stiffness * 4.0 / d->length, &d->stretch_stiffness, "N/m") ||
       read_nonnegative(&r, "bend_stiffness", d->bend_stiffness * 4.0 / d->length, &d->bend_stiffness, "N/m") ||
-      read_nonnegative(&r, "global_stretch_stiffness", d->global_stretch_stiffness * 4.0 / d->length,
-                       &d->global_stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "global_stretch_stiffness", d->global_stretch_stiffness, &d->global_stretch_stiffness, "N/m") ||
       read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
       read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
       read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||

@@ -111,3 +111,16 @@ def test_box_out_of_reach_does_not_move(falling_line):
     moved = _box_displacement(model, data)
     assert np.hypot(moved[0], moved[1]) < 1e-9
     assert -2e-4 < moved[2] <= 0.0  # only MuJoCo's own soft-contact settling
+
+
+@pytest.mark.parametrize("length", [0.4, 1.0, 8.0])
+def test_defaults_are_stable_at_any_length(length):
+    """Defaults describe one material at every length: short and long intestines
+    drop onto a plane and settle at the default step without a single divergence."""
+    points = max(8, int(round(62.5 * length)))
+    model, data, gut = compile_scene('<geom type="plane" size="10 10 .1"/>', length=length, control_points=points,
+                                     shape="line", start=[0, 0, 0.2], direction=[1, 0, 0.05])
+    while data.time < 1.0:
+        mujoco.mj_step(model, data)
+    assert gut.divergence_count(data) == 0
+    assert gut.length(data) == pytest.approx(length, rel=0.02)

@@ -54,8 +54,9 @@ typedef struct vsc_rod_def {
 #define VSC_MAX_COLLISION_SPHERES 10000000
 
 /// Defaults: a 4 m, 250-point, 12.5 mm-radius intestine of density 1000 kg/m^3,
-/// stiffnesses 10, 1 and 200 N/m (the plugin scales them as 4 m / length, so
-/// that every length is the same material: 40, 4 and 800 N times 1 / length).
+/// stiffnesses 10, 1 and 200 N/m (the plugin scales the first two as
+/// 4 m / length, so that every length is the same material: 40 N and 4 N
+/// divided by the length).
 vsc_rod_def vsc_default_rod_def(void);
 
 /// Default collision spheres along `length` (m) for radius `radius` (m):
