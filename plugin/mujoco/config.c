@@ -14,7 +14,8 @@ const char* const vsc_plugin_attributes[] = {
     "length", "control_points", "mass", "density", "radius", "radius_min", "radius_max",
     "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
     "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
-    "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction"};
+    "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
+    "skin_ring_points"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -259,6 +260,9 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
            read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction, "Coulomb coefficient");
   if (failed) return -1;
   d->self_collision = self_collision;
+  if (read_count(&r, "skin_rings_per_segment", 4, 1, 64, &c->skin_rings_per_segment) ||
+      read_count(&r, "skin_ring_points", 16, 3, 256, &c->skin_ring_points))
+    return -1;
   c->friction = -1.0;
   if (raw(&r, "friction") && read_nonnegative(&r, "friction", 0.0, &c->friction, "Coulomb coefficient")) return -1;
   if (c->radius_min > c->radius_max)

@@ -23,6 +23,8 @@ typedef struct vsc_plugin_config {
   double radius_min;          ///< skin radius between control points (m)
   double radius_max;          ///< skin radius at control points (m)
   double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]
+  int skin_rings_per_segment; ///< skin rings per spline segment
+  int skin_ring_points;       ///< skin vertices per ring
   vsc_shape_kind shape;
   double start[3];            ///< line start (m)
   double direction[3];        ///< line direction (unit)

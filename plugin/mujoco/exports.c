@@ -7,6 +7,7 @@
 
 #include "config.h"
 #include "viscera/vsc_grid.h"
+#include "viscera/vsc_skin.h"
 #include "viscera/vsc_spline.h"
 
 #define VSC_EXPORT __attribute__((visibility("default")))
@@ -93,4 +94,41 @@ VSC_EXPORT double viscera_collision_pass_seconds(const double* xyz, int count, d
   *contacts = p.contacts;
   vsc_grid_destroy(grid);
   return best;
+}
+
+// The skin definition of intestine `instance`, from its config.
+static int skin_def(const mjModel* m, int instance, vsc_skin_def* def, int* n) {
+  vsc_plugin_config config;
+  char error[256];
+  int slot = -1;
+  if (instance < 0 || instance >= m->nplugin) return -1;
+  if (!mjp_getPlugin("viscera.intestine", &slot) || m->plugin[instance] != slot) return -1;
+  if (vsc_plugin_config_read(m, instance, &config, error, (int)sizeof(error))) return -1;
+  def->rings_per_segment = config.skin_rings_per_segment;
+  def->ring_points = config.skin_ring_points;
+  def->radius_min = config.radius_min;
+  def->radius_max = config.radius_max;
+  *n = config.rod.control_count;
+  vsc_plugin_config_free(&config);
+  return 0;
+}
+
+/// Vertex and triangle counts of the skin of intestine `instance` (-1 if not one).
+VSC_EXPORT int viscera_skin_size(const mjModel* m, int instance, int* vertices, int* triangles) {
+  vsc_skin_def def;
+  int n;
+  if (skin_def(m, instance, &def, &n)) return -1;
+  *vertices = vsc_skin_vertex_count(n, &def);
+  *triangles = vsc_skin_triangle_count(n, &def);
+  return 0;
+}
+
+/// Skin of intestine `instance` for control points q (m, 3n) into arrays sized
+/// by viscera_skin_size: vertices (m), unit normals, triangle vertex indices.
+VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, const double* q, double* vertices, double* normals,
+                                  int* triangles) {
+  vsc_skin_def def;
+  int n;
+  if (skin_def(m, instance, &def, &n)) return -1;
+  return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
 }

@@ -14,7 +14,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 from viscera import _library  # noqa: E402
 from viscera.intestine import (  # noqa: E402
     PLUGIN_NAME, Intestine, add_to_mjcf, attribute_names, config_strings, extension_xml, intestine, intestines,
-    spline_points)
+    skin, spline_points)
 
 __version__ = "0.1.0"
 
@@ -22,5 +22,5 @@ PLUGIN_LIBRARY = _library.load()
 
 __all__ = [
     "PLUGIN_LIBRARY", "PLUGIN_NAME", "Intestine", "add_to_mjcf", "attribute_names", "config_strings",
-    "extension_xml", "intestine", "intestines", "spline_points",
+    "extension_xml", "intestine", "intestines", "skin", "spline_points",
 ]

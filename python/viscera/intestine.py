@@ -180,3 +180,32 @@ def add_to_mjcf(root: Any, name: str = "intestine", **config: Any) -> Any:
     for key, value in config_strings(**config).items():
         instance.add("config", key=key, value=value)
     return instance
+
+
+def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0):
+    """The intestine's skin (paper 3.2): a closed generalised cylinder around its axis.
+
+    Returns (vertices (V, 3) in m, unit normals (V, 3), triangles (T, 3) vertex
+    indices), triangles counter-clockwise seen from outside. `instance` is the
+    plugin instance index or the intestine's name. Resolution from the config
+    keys skin_rings_per_segment and skin_ring_points, radii from radius_min and
+    radius_max.
+    """
+    gut = intestine(model, instance) if isinstance(instance, str) else None
+    index = gut.instance if gut else int(instance)
+    lib = _library.native()
+    nv, nt = ctypes.c_int(0), ctypes.c_int(0)
+    address = ctypes.c_void_p(model._address)
+    if lib.viscera_skin_size(address, index, ctypes.byref(nv), ctypes.byref(nt)) != 0:
+        raise KeyError(f"plugin instance {instance!r} is not a viscera.intestine")
+    gut = gut or next(g for g in intestines(model) if g.instance == index)
+    q = np.ascontiguousarray(gut.positions(data), dtype=np.float64)
+    vertices = np.empty((nv.value, 3))
+    normals = np.empty((nv.value, 3))
+    triangles = np.empty((nt.value, 3), dtype=np.int32)
+    status = lib.viscera_skin_build(address, index, q.ctypes.data_as(ctypes.c_void_p),
+                                    vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
+                                    triangles.ctypes.data_as(ctypes.c_void_p))
+    if status != 0:
+        raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
+    return vertices, normals, triangles
