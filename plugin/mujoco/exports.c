@@ -132,3 +132,12 @@ VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, const double* 
   if (skin_def(m, instance, &def, &n)) return -1;
   return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
 }
+
+/// Skin of n control points q with an explicit resolution and radii (for
+/// coarser recordings): sizes as vsc_skin_vertex_count / vsc_skin_triangle_count.
+VSC_EXPORT int viscera_skin_build_with(const double* q, int n, int rings_per_segment, int ring_points,
+                                       double radius_min, double radius_max, double* vertices, double* normals,
+                                       int* triangles) {
+  vsc_skin_def def = {rings_per_segment, ring_points, radius_min, radius_max};
+  return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
+}

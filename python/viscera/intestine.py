@@ -182,14 +182,15 @@ def add_to_mjcf(root: Any, name: str = "intestine", **config: Any) -> Any:
     return instance
 
 
-def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0):
+def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
+         rings_per_segment: int | None = None, ring_points: int | None = None):
     """The intestine's skin (paper 3.2): a closed generalised cylinder around its axis.
 
     Returns (vertices (V, 3) in m, unit normals (V, 3), triangles (T, 3) vertex
     indices), triangles counter-clockwise seen from outside. `instance` is the
     plugin instance index or the intestine's name. Resolution from the config
-    keys skin_rings_per_segment and skin_ring_points, radii from radius_min and
-    radius_max.
+    keys skin_rings_per_segment and skin_ring_points (or the arguments, e.g. a
+    coarser skin for recordings), radii from radius_min and radius_max.
     """
     gut = intestine(model, instance) if isinstance(instance, str) else None
     index = gut.instance if gut else int(instance)
@@ -200,6 +201,21 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0):
         raise KeyError(f"plugin instance {instance!r} is not a viscera.intestine")
     gut = gut or next(g for g in intestines(model) if g.instance == index)
     q = np.ascontiguousarray(gut.positions(data), dtype=np.float64)
+    if rings_per_segment is not None or ring_points is not None:
+        rings = rings_per_segment or int(gut.config.get("skin_rings_per_segment") or 4)
+        points = ring_points or int(gut.config.get("skin_ring_points") or 16)
+        r_max = float(gut.config.get("radius_max") or gut.radius)
+        r_min = float(gut.config.get("radius_min") or r_max)
+        count = ((gut.control_count - 1) * rings + 1) * points
+        vertices, normals = np.empty((count + 2, 3)), np.empty((count + 2, 3))
+        triangles = np.empty((2 * count, 3), dtype=np.int32)
+        status = lib.viscera_skin_build_with(q.ctypes.data_as(ctypes.c_void_p), gut.control_count, rings, points,
+                                             r_min, r_max, vertices.ctypes.data_as(ctypes.c_void_p),
+                                             normals.ctypes.data_as(ctypes.c_void_p),
+                                             triangles.ctypes.data_as(ctypes.c_void_p))
+        if status != 0:
+            raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
+        return vertices, normals, triangles
     vertices = np.empty((nv.value, 3))
     normals = np.empty((nv.value, 3))
     triangles = np.empty((nt.value, 3), dtype=np.int32)
