@@ -254,6 +254,10 @@ static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
       const mjtNum* row = out->rotation + 3 * a;
       double centre = out->position[a] + row[0] * aabb[0] + row[1] * aabb[1] + row[2] * aabb[2];
       double half = fabs(row[0]) * aabb[3] + fabs(row[1]) * aabb[4] + fabs(row[2]) * aabb[5];
+      if (m->geom_type[g] == mjGEOM_SDF) {  // collides as its bounding sphere: that is its box
+        centre = out->position[a];
+        half = m->geom_rbound[g];
+      }
       out->box[a] = centre - half;
       out->box[3 + a] = centre + half;
     }
@@ -377,6 +381,10 @@ static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjt
     int body = m->sensor_objid[s];
     const mjtNum* w = wrench + 6 * body;
     mjtNum* out = d->sensordata + m->sensor_adr[s];
+    if (!all_finite(w, 6)) {  // never hand MuJoCo a NaN
+      memset(out, 0, sizeof(mjtNum) * 6);
+      continue;
+    }
     const mjtNum* com = d->xipos + 3 * body;
     const mjtNum* origin = d->xpos + 3 * body;
     double arm[3] = {com[0] - origin[0], com[1] - origin[1], com[2] - origin[2]};

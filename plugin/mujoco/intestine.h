@@ -1,10 +1,14 @@
 // viscera.intestine: the spline intestine as a MuJoCo passive-force plugin.
 //
-// plugin_state layout per instance (n control points, mjtNums):
+// plugin_state layout per instance (n control points, S collision spheres,
+// B = m->nbody; mjtNums):
 //   [0, 3n)        control point positions, x y z per point (m, world frame)
 //   [3n, 6n)       control point velocities (m/s)
 //   [6n]           divergence count: steps whose state became non-finite or
 //                  faster than 1e4 m/s and was restored (reset writes 0)
+//   6B numbers     per body, the reaction of the intestine over the last step:
+//                  force (N), torque about the body's centre of mass (N m), world
+//   8S numbers     per sphere, friction state (see vsc_contact.h)
 // plugin_data holds only caches derived from the model (the rod's mass matrix
 // factor, basis tables, scratch), one per mjData.
 #ifndef VISCERA_PLUGIN_INTESTINE_H

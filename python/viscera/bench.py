@@ -172,7 +172,20 @@ def run(duration: float = 5.0, runs: int = 3, quiet: bool = False) -> dict:
     result["speedup_vs_flexcomp"] = result["peers"]["flexcomp"]["wall_s_per_sim_s_median"] / ours
     result["collision_pass"] = collision_pass_scaling()
     result["scales"] = scale_costs(min(duration, 2.0), runs)
+    result["skin"] = skin_cost()
     return result
+
+
+def skin_cost(repeats: int = 50) -> dict:
+    """Median time to skin the settled 250-point intestine at the default resolution."""
+    model = mujoco.MjModel.from_xml_string(viscera_xml())
+    _, data = _time_model(model, 0.5)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        vertices, _, triangles = viscera.skin(model, data)
+        times.append(time.perf_counter() - start)
+    return {"seconds_median": statistics.median(times), "vertices": len(vertices), "triangles": len(triangles)}
 
 
 def plot_scaling(scaling: dict, path: str) -> None:
@@ -222,6 +235,9 @@ def main(argv: list[str] | None = None) -> int:
     for row in result["scales"]:
         print(f"  {row['length_m']:4.0f} m, {row['control_points']:4d} control points, {row['collision_spheres']:4d} spheres: "
               f"{row['wall_s_per_sim_s_median']:.3f} wall s / sim s")
+    skin = result["skin"]
+    print(f"skin of the 250-point intestine ({skin['vertices']} vertices, {skin['triangles']} triangles): "
+          f"{skin['seconds_median'] * 1e3:.3f} ms (median of 50, from Python)")
     if args.plot:
         plot_scaling(scaling, args.plot)
         print(f"  figure: {args.plot}")

@@ -266,8 +266,13 @@ static void collect_self(void* context, int earlier, int item) {
 static void collect_geom(void* context, int i) {
   build* b = (build*)context;
   vsc_contact_lists* l = b->rod->lists;
+  // the distance filter needs a distance that changes no faster than the point
+  // moves: exact for the primitives and hulls, not for the ellipsoid estimate or
+  // a height field (which jumps at its sides): those keep every grid candidate
+  const vsc_geom* geom = &b->world->geoms[b->geom];
   double n[3];
-  if (vsc_geom_distance(&b->world->geoms[b->geom], b->rod->sphere_xyz + 3 * i, n) > b->reach) return;
+  int exact = geom->type != VSC_GEOM_ELLIPSOID && geom->type != VSC_GEOM_HEIGHTFIELD;
+  if (exact && vsc_geom_distance(geom, b->rod->sphere_xyz + 3 * i, n) > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;
     return;
@@ -435,6 +440,10 @@ static void update_slot(double* slot, const double* touch, double k, double h) {
 }
 
 void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h) {
+  if (!rod->touched) {  // no contact was looked for: none holds
+    vsc_stick_clear(stick, rod->def.collision_sphere_count);
+    return;
+  }
   double k = rod->def.contact_stiffness;
   for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
     const double* touch = rod->touch + VSC_TOUCH_SIZE * i;

@@ -81,6 +81,8 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
     if (r != VSC_OK) {
       status = r;
       if (stick) vsc_stick_clear(stick, rod->def.collision_sphere_count);
+      if (world->geom_wrench)  // the failed substeps' forces must not reach the bodies
+        memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
     } else if (stick) {
       vsc_rod_update_stick(rod, stick, h);  // from the last stage's contacts
     }

@@ -153,7 +153,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
-  rod->touch = (double*)malloc(sizeof(double) * VSC_TOUCH_SIZE * (size_t)spheres);
+  rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
   vsc_grid_create(spheres, &rod->grid);
   rod->lists = vsc_contact_lists_create(spheres);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
@@ -335,7 +335,8 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
   vsc_rod_update_samples(rod, q);
   elastic_sample_forces(rod);
   gather_to_control(rod, Q);
-  if (world->geom_count > 0 || rod->def.self_collision) {
+  rod->touched = world->geom_count > 0 || rod->def.self_collision;
+  if (rod->touched) {
     vsc_rod_update_spheres(rod, q, v);
     vsc_rod_contact_forces(rod, world, Q);
   }

@@ -18,9 +18,9 @@ typedef enum vsc_integrator {
 /// is set, the reaction on each geom averaged over dt is added to it (RK4's
 /// stage weights), so the impulse the geoms receive is exactly the one the rod
 /// gave. If the state becomes non-finite or faster than VSC_DIVERGED_SPEED, q
-/// is restored to its value at the start of the failing substep, v and the
-/// friction state are cleared and VSC_ERROR_DIVERGED is returned: the state
-/// always stays finite.
+/// is restored to its value at the start of the failing substep, v, the
+/// friction state and the geom reactions are cleared and VSC_ERROR_DIVERGED is
+/// returned: the state always stays finite.
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
                         int substeps);
 

@@ -107,6 +107,7 @@ typedef struct vsc_rod {
   vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
   int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
   double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
+  int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
 } vsc_rod;
 
