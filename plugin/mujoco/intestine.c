@@ -479,10 +479,14 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   const mjtNum* q = d->plugin_state + m->plugin_stateadr[instance];
   if (!all_finite(q, 3 * it->config.rod.control_count)) return;
   vsc_rod_update_samples(it->rod, q);
+  // the skin's radius profile on a capsule chain: a triangle per mjvGeom would
+  // take 32k geoms for the default skin, past any scene's capacity
   static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f};
-  double radius = it->config.rod.radius;
-  int samples = it->rod->sample_count;
+  int samples = it->rod->sample_count, n = it->config.rod.control_count;
+  double r_min = it->config.radius_min, r_max = it->config.radius_max;
   for (int a = 0; a + 1 < samples; ++a) {
+    double x = ((double)a + 0.5) / (double)(samples - 1) * (double)(n - 1), u = x - floor(x);
+    double c = cos(3.14159265358979323846 * u), radius = r_min + c * c * (r_max - r_min);
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     mjvGeom* geom = scn->geoms + scn->ngeom;
     mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);
