@@ -1,4 +1,4 @@
-// Sphere contacts through the grid: self pairs on insertion, geoms by query.
+// Contacts: candidate lists from grid passes (segments, then spheres), and the narrow phase per evaluation.
 #include "viscera/vsc_contact.h"
 
 #include <math.h>
