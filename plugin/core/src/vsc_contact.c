@@ -116,6 +116,18 @@ static void self_pair(void* context, int earlier, int item) {
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
   const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
+  // cheap exact rejection: segments within 2r of each other have midpoints within
+  // 2r + half of each length (most candidates of a list are not touching)
+  double ma[3], mb[3], la = 0.0, lb = 0.0, gap2 = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    ma[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
+    mb[c] = 0.5 * (x[3 * b + c] + x[3 * b + 3 + c]);
+    la += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
+    lb += (x[3 * b + 3 + c] - x[3 * b + c]) * (x[3 * b + 3 + c] - x[3 * b + c]);
+    gap2 += (ma[c] - mb[c]) * (ma[c] - mb[c]);
+  }
+  double reach = 2.0 * rod->def.radius + 0.5 * (sqrt(la) + sqrt(lb));
+  if (gap2 >= reach * reach) return;
   double s, t;
   closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
   double P[3], Q[3], vp[3], vq[3], d[3];
