@@ -71,11 +71,3 @@ vsc_basis vsc_spline_basis_derivative(int n, double s) {
   for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i) local[i] *= (double)(n - 1);  // du/ds
   return fold_segment(n, j, local);
 }
-
-void vsc_basis_point(const vsc_basis* b, const double* q, double out[3]) {
-  const double* p = q + 3 * b->first;
-  for (int c = 0; c < 3; ++c) {
-    out[c] = b->weight[0] * p[c] + b->weight[1] * p[3 + c] + b->weight[2] * p[6 + c] +
-             b->weight[3] * p[9 + c];
-  }
-}

@@ -40,6 +40,11 @@ vsc_basis vsc_spline_basis(int control_count, double s);
 vsc_basis vsc_spline_basis_derivative(int control_count, double s);
 
 /// Evaluate a basis window on interleaved xyz control points (3 per point).
-void vsc_basis_point(const vsc_basis* basis, const double* control_xyz, double out[3]);
+/// Inline: it runs for every sphere of every force evaluation.
+static inline void vsc_basis_point(const vsc_basis* basis, const double* control_xyz, double out[3]) {
+  const double* p = control_xyz + 3 * basis->first;
+  const double* w = basis->weight;
+  for (int c = 0; c < 3; ++c) out[c] = w[0] * p[c] + w[1] * p[3 + c] + w[2] * p[6 + c] + w[3] * p[9 + c];
+}
 
 #endif  // VISCERA_VSC_SPLINE_H
