@@ -77,8 +77,25 @@ static void cube_polytope(double planes[48], double triangles[108]) {
 
 static void new_primitives(void) {
   vsc_geom ellipsoid = make(VSC_GEOM_ELLIPSOID, 1, 2, 3);
-  check(&ellipsoid, 0, 0, 4, 1, 0, 0, 1);     // on an axis: exact
+  check(&ellipsoid, 0, 0, 4, 1, 0, 0, 1);     // on an axis
   check(&ellipsoid, 0, 1.5, 0, -0.5, 0, 1, 0);
+  // anywhere, inside and out, even for a flat one: against the nearest of 400k surface samples
+  vsc_geom thin = make(VSC_GEOM_ELLIPSOID, 0.2, 0.2, 0.01);
+  const vsc_geom* shapes[2] = {&ellipsoid, &thin};
+  double probes[4][3] = {{0.7, 1.1, 2.4}, {0.3, -0.4, 0.5}, {0.15, 0.1, 0.05}, {0.05, 0.02, 0.004}};
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 4; ++k) {
+      const double* s = shapes[e]->size;
+      double best = INFINITY, p[3] = {probes[k][0], probes[k][1], probes[k][2]}, nrm[3];
+      for (int i = 0; i <= 400; ++i)
+        for (int j = 0; j < 1000; ++j) {
+          double th = 3.14159265358979 * i / 400, ph = 2 * 3.14159265358979 * j / 1000;
+          double x = s[0] * sin(th) * cos(ph) - p[0], y = s[1] * sin(th) * sin(ph) - p[1], z = s[2] * cos(th) - p[2];
+          best = fmin(best, sqrt(x * x + y * y + z * z));
+        }
+      double inside = p[0] * p[0] / (s[0] * s[0]) + p[1] * p[1] / (s[1] * s[1]) + p[2] * p[2] / (s[2] * s[2]) < 1;
+      ENSURE_NEAR(vsc_geom_distance(shapes[e], p, nrm), inside ? -best : best, 2e-3 * fmax(s[0], fmax(s[1], s[2])));
+    }
   double planes[48], triangles[108];
   cube_polytope(planes, triangles);
   vsc_convex cube = {12, planes, triangles};

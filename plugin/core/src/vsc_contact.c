@@ -279,11 +279,11 @@ static void collect_geom(void* context, int i) {
   build* b = (build*)context;
   vsc_contact_lists* l = b->rod->lists;
   // the distance filter needs a distance that changes no faster than the point
-  // moves: exact for the primitives and hulls, not for the ellipsoid estimate or
-  // a height field (which jumps at its sides): those keep every grid candidate
+  // moves: exact distances do, a height field's does not (it jumps at its
+  // sides), so a height field keeps every grid candidate
   const vsc_geom* geom = &b->world->geoms[b->geom];
   double n[3];
-  int exact = geom->type != VSC_GEOM_ELLIPSOID && geom->type != VSC_GEOM_HEIGHTFIELD;
+  int exact = geom->type != VSC_GEOM_HEIGHTFIELD;
   if (exact && vsc_geom_distance(geom, b->rod->sphere_xyz + 3 * i, n) > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;

@@ -60,21 +60,46 @@ static double box_distance(const double l[3], const double h[3], double n[3]) {
   return q[axis];
 }
 
-// Ellipsoid: d = k0 (k0 - 1) / k1 with k0 = |p / s|, k1 = |p / s^2| (a first-order
-// distance estimate, exact on the axes and on the surface), normal along p / s^2.
+// Ellipsoid, exact: the closest point is x_i = l_i s_i^2 / (s_i^2 + t) where t
+// is the root of f(t) = sum (s_i l_i / (s_i^2 + t))^2 - 1, decreasing on
+// t > -min s_i^2: t > 0 outside, t <= 0 inside. Newton safeguarded by bisection.
 static double ellipsoid_distance(const double l[3], const double s[3], double n[3]) {
-  double a[3] = {l[0] / s[0], l[1] / s[1], l[2] / s[2]};
-  double b[3] = {a[0] / s[0], a[1] / s[1], a[2] / s[2]};
-  double k0 = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-  double k1 = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-  if (!(k1 > 0.0)) {  // the centre: leave along the shortest semi-axis
+  double s2[3] = {s[0] * s[0], s[1] * s[1], s[2] * s[2]};
+  double inside = (l[0] * l[0]) / s2[0] + (l[1] * l[1]) / s2[1] + (l[2] * l[2]) / s2[2] - 1.0;
+  double smallest = fmin(s2[0], fmin(s2[1], s2[2]));
+  double norm = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+  double lo = inside > 0.0 ? 0.0 : -smallest * (1.0 - 1e-12);
+  double hi = inside > 0.0 ? norm * sqrt(fmax(s2[0], fmax(s2[1], s2[2]))) : 0.0;
+  double t = inside > 0.0 ? 0.5 * hi : 0.5 * lo;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    double f = -1.0, df = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      double q = s[i] * l[i] / (s2[i] + t);
+      f += q * q;
+      df -= 2.0 * q * q / (s2[i] + t);
+    }
+    if (f > 0.0) lo = t; else hi = t;
+    double next = df < 0.0 ? t - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);  // Newton left the bracket: bisect
+    if (fabs(next - t) <= 1e-15 * (1.0 + fabs(t))) { t = next; break; }
+    t = next;
+  }
+  double x[3], d[3], g[3];
+  for (int i = 0; i < 3; ++i) {
+    x[i] = l[i] * s2[i] / (s2[i] + t);
+    d[i] = l[i] - x[i];
+    g[i] = x[i] / s2[i];  // outward normal direction at x
+  }
+  double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (!(gn > 0.0)) {  // the centre: leave along the shortest semi-axis
     int axis = s[0] <= s[1] && s[0] <= s[2] ? 0 : (s[1] <= s[2] ? 1 : 2);
     n[0] = n[1] = n[2] = 0.0;
     n[axis] = 1.0;
     return -s[axis];
   }
-  for (int i = 0; i < 3; ++i) n[i] = b[i] / k1;
-  return k0 * (k0 - 1.0) / k1;
+  for (int i = 0; i < 3; ++i) n[i] = g[i] / gn;
+  double distance = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  return inside > 0.0 ? distance : -distance;
 }
 
 // Closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).

@@ -10,7 +10,7 @@ typedef enum vsc_geom_type {
   VSC_GEOM_CAPSULE = 2,   ///< size[0] radius, size[1] half-length along local z (m)
   VSC_GEOM_CYLINDER = 3,  ///< size[0] radius, size[1] half-height along local z (m)
   VSC_GEOM_BOX = 4,       ///< size[0..2] half-extents along local x, y, z (m)
-  VSC_GEOM_ELLIPSOID = 5, ///< size[0..2] semi-axes (m); distance approximate, exact on the axes
+  VSC_GEOM_ELLIPSOID = 5, ///< size[0..2] semi-axes (m); exact distance (closest point by Newton)
   VSC_GEOM_CONVEX = 6,    ///< convex polytope in `convex` (a mesh's hull): exact distance
   VSC_GEOM_HEIGHTFIELD = 7,  ///< `heightfield`: vertical distance to the bilinear surface along its normal
 } vsc_geom_type;
