@@ -41,7 +41,6 @@ def run(scene: str, duration: float, png: str | None, camera: str | None, quiet:
         from viscera.viewer import MeshcatViewer
         view = MeshcatViewer(model, host=host)
         print(f"meshcat viewer: {view.url}", flush=True)
-        view.update(data)
     live = viewer == "meshcat"
     display_every = max(1, int(round(1.0 / (30.0 * model.opt.timestep))))
     record_every = max(1, int(round(1.0 / (record_fps * model.opt.timestep))))
@@ -49,6 +48,8 @@ def run(scene: str, duration: float, png: str | None, camera: str | None, quiet:
     wall_start = time.perf_counter()
     stepping = 0.0
     try:
+        if view is not None:
+            view.update(data)
         with tqdm(total=steps, unit="step", disable=quiet, desc=os.path.basename(scene)) as bar:
             done = 0
             while done < steps:

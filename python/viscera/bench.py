@@ -214,8 +214,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plot", help="also draw the collision-pass scaling to this PNG")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    if args.runs < 1 or args.duration <= 0:
-        parser.error("--runs must be >= 1 and --duration positive")
+    if args.runs < 1 or args.duration < 0.01:
+        parser.error("--runs must be >= 1 and --duration at least 0.01 s (several steps)")
     result = run(args.duration, args.runs, args.quiet)
     print(f"{POINTS}-point, {LENGTH:g} m fall onto a plane, {args.duration:g} s simulated, median of {args.runs} runs")
     for name, peer in result["peers"].items():

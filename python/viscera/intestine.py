@@ -90,6 +90,8 @@ class Intestine:
         """Force (N) and torque (N m, about the body's centre of mass), world frame, that the
         intestine exerted on `body` (id or name), averaged over the last step; shape (6,)."""
         body_id = body if isinstance(body, (int, np.integer)) else self.model.body(body).id
+        if not 0 <= body_id < self.model.nbody:
+            raise IndexError(f"body {body!r} is not a body of the model (0 to {self.model.nbody - 1})")
         start = 6 * self.control_count + 1 + 6 * int(body_id)
         return self._state(data)[start:start + 6].copy()
 
@@ -204,6 +206,8 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
     if rings_per_segment is not None or ring_points is not None:
         rings = rings_per_segment or int(gut.config.get("skin_rings_per_segment") or 4)
         points = ring_points or int(gut.config.get("skin_ring_points") or 16)
+        if rings < 1 or points < 3:
+            raise ValueError(f"a skin needs rings_per_segment >= 1 and ring_points >= 3, got {rings} and {points}")
         r_max = float(gut.config.get("radius_max") or gut.radius)
         r_min = float(gut.config.get("radius_min") or r_max)
         count = ((gut.control_count - 1) * rings + 1) * points

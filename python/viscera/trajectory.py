@@ -119,8 +119,9 @@ class ToolPlayer:
         for name in COORDINATES:
             actuator = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{tool}_{name}")
             self.actuators.append(actuator)
-        if all(a < 0 for a in self.actuators):
-            raise KeyError(f"no actuators named {tool}_pitch, {tool}_yaw, ... in the model")
+        missing = [name for name, a in zip(COORDINATES, self.actuators) if a < 0 and name != "jaw"]
+        if missing:  # every tool pivots, inserts and rolls; only graspers have a jaw
+            raise KeyError(f"the model has no actuators {[f'{tool}_{m}' for m in missing]}")
         # MJCF angles are in degrees (compiler angle="degree"); MuJoCo stores radians
         self.scale = np.array([np.pi / 180, np.pi / 180, 1.0, np.pi / 180, np.pi / 180])
 

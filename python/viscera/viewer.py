@@ -17,14 +17,18 @@ and toggles visibility; `record_rings_per_segment` / `record_ring_points`
 
 from __future__ import annotations
 
+import os
+import selectors
 import subprocess
 import sys
+import time
 
 import meshcat
 import meshcat.animation
 import meshcat.geometry as g
 import mujoco
 import numpy as np
+import zmq
 
 import viscera
 
@@ -54,9 +58,9 @@ def _revolved(profile_r: np.ndarray, profile_z: np.ndarray, segments: int = 24) 
 
 
 def _capsule(radius: float, half: float) -> g.TriangularMeshGeometry:
-    theta = np.linspace(-np.pi / 2, np.pi / 2, 9)
-    r = np.concatenate([radius * np.cos(theta), radius * np.cos(theta)])
-    z = np.concatenate([-half + radius * np.sin(theta), half + radius * np.sin(theta)])
+    bottom, top = np.linspace(-np.pi / 2, 0.0, 5), np.linspace(0.0, np.pi / 2, 5)  # the two hemispheres
+    r = np.concatenate([radius * np.cos(bottom), radius * np.cos(top)])
+    z = np.concatenate([-half + radius * np.sin(bottom), half + radius * np.sin(top)])
     return _revolved(r, z)
 
 
@@ -116,21 +120,49 @@ class MeshcatViewer:
     """A meshcat view of a MuJoCo model with intestines, served on `host` only."""
 
     def __init__(self, model: mujoco.MjModel, host: str = "127.0.0.1", record_rings_per_segment: int = 1,
-                 record_ring_points: int = 8):
+                 record_ring_points: int = 8, timeout: float = 30.0):
         self.model = model
+        self.vis = None
         self._server = subprocess.Popen([sys.executable, "-m", "viscera.meshcat_server", "--host", host],
-                                        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        zmq_url = web_url = None
-        while zmq_url is None or web_url is None:  # the server prints both, then serves
-            line = self._server.stdout.readline()
-            if not line:
-                raise RuntimeError("the meshcat server did not start")
-            if line.startswith("zmq_url="):
-                zmq_url = line.strip().split("=", 1)[1]
-            elif line.startswith("web_url="):
-                web_url = line.strip().split("=", 1)[1]
-        self.url = web_url
-        self.vis = meshcat.Visualizer(zmq_url=zmq_url)
+                                        stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        try:
+            zmq_url, self.url = self._read_urls(timeout)
+            self.vis = meshcat.Visualizer(zmq_url=zmq_url)
+            # a dead server must raise, not hang: meshcat's request socket waits forever by default
+            self.vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
+            self.vis.window.zmq_socket.setsockopt(zmq.LINGER, 0)
+            self._build(record_rings_per_segment, record_ring_points)
+        except BaseException:
+            self.close()
+            raise
+
+    def _read_urls(self, timeout: float) -> tuple[str, str]:
+        """The zmq and web URLs the server prints when it is up, within `timeout` s."""
+        urls: dict[str, str] = {}
+        deadline = time.monotonic() + timeout
+        pending = b""
+        stdout = self._server.stdout.fileno()  # raw reads: select and buffered readline do not mix
+        with selectors.DefaultSelector() as selector:
+            selector.register(stdout, selectors.EVENT_READ)
+            while len(urls) < 2:
+                left = deadline - time.monotonic()
+                if left <= 0 or not selector.select(left):
+                    raise RuntimeError(f"the meshcat server did not start within {timeout} s")
+                chunk = os.read(stdout, 4096)
+                if not chunk:
+                    self._server.wait(timeout=5)
+                    error = self._server.stderr.read().decode(errors="replace")
+                    raise RuntimeError(f"the meshcat server stopped: {error.strip()[-500:]}")
+                pending += chunk
+                *lines, pending = pending.split(b"\n")
+                for line in lines:
+                    key, _, value = line.decode(errors="replace").strip().partition("=")
+                    if key in ("zmq_url", "web_url"):
+                        urls[key] = value
+        return urls["zmq_url"], urls["web_url"]
+
+    def _build(self, record_rings_per_segment: int, record_ring_points: int) -> None:
+        model = self.model
         self.intestines = viscera.intestines(model)
         self.record_resolution = (record_rings_per_segment, record_ring_points)
         self.frames: list[tuple[dict, dict]] = []
@@ -140,8 +172,10 @@ class MeshcatViewer:
             shape = geom_geometry(model, geom) if visible else None
             if shape is None:
                 continue
-            material = model.geom_matid[geom]  # a geom with a material takes its colour from it
-            rgba = model.mat_rgba[material] if material >= 0 else model.geom_rgba[geom]
+            # MuJoCo's rule: a material's colour applies unless the geom sets its own rgba
+            material, rgba = model.geom_matid[geom], model.geom_rgba[geom]
+            if material >= 0 and np.allclose(rgba, [0.5, 0.5, 0.5, 1.0]):
+                rgba = model.mat_rgba[material]
             self.vis["geoms"][str(geom)].set_object(shape, _material(rgba))
             self.geoms.append(geom)
         self._moving = [geom for geom in self.geoms if model.body_weldid[model.geom_bodyid[geom]] != 0]
@@ -200,9 +234,20 @@ class MeshcatViewer:
         return len(html.encode())
 
     def close(self) -> None:
+        """Stop the server and release its pipes and sockets (idempotent)."""
+        if self.vis is not None:
+            self.vis.window.zmq_socket.close(linger=0)
+            self.vis = None
         if self._server.poll() is None:
             self._server.terminate()
-            self._server.wait(timeout=10)
+            try:
+                self._server.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self._server.kill()
+                self._server.wait()
+        for pipe in (self._server.stdout, self._server.stderr):
+            if pipe and not pipe.closed:
+                pipe.close()
 
     def __enter__(self):
         return self

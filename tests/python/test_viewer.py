@@ -137,3 +137,21 @@ def test_viewer_follows_a_dm_control_loop():
             viewer.update(physics.data.ptr)
             viewer.record(physics.data.ptr)
         assert len(viewer.frames) == 3
+
+
+def test_capsule_mesh_is_a_tube_with_round_ends():
+    from viscera.viewer import _capsule
+    mesh = _capsule(0.01, 0.05)
+    v = np.asarray(mesh.vertices)
+    radial = np.hypot(v[:, 0], v[:, 1])
+    assert v[:, 2].min() == pytest.approx(-0.06) and v[:, 2].max() == pytest.approx(0.06)
+    middle = np.abs(v[:, 2]) <= 0.05 + 1e-12  # the cylindrical part spans the whole half-length
+    assert radial[middle].max() == pytest.approx(0.01) and middle.sum() >= 2 * 24
+
+
+def test_viewer_that_cannot_start_raises_and_leaves_no_server():
+    model = mujoco.MjModel.from_xml_string("<mujoco/>")
+    with pytest.raises(RuntimeError, match="meshcat server"):
+        MeshcatViewer(model, host="300.1.1.1")  # not an address
+    running = subprocess.run(["pgrep", "-f", "viscera.meshcat_server"], capture_output=True, text=True)
+    assert running.stdout.strip() == ""
