@@ -15,7 +15,7 @@ const char* const vsc_plugin_attributes[] = {
     "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
     "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
-    "skin_ring_points"};
+    "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -260,6 +260,16 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
            read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction, "Coulomb coefficient");
   if (failed) return -1;
   d->self_collision = self_collision;
+  // mesentery: tension-only tethers from the axis to a root line (off by default)
+  static const double no_root[6] = {0, 0, 0, 0, 0, 0};
+  if (read_nonnegative(&r, "mesentery_stiffness", 0.0, &d->mesentery_stiffness, "N/m") ||
+      read_nonnegative(&r, "mesentery_length", 0.15, &d->mesentery_length, "m") ||
+      read_count(&r, "mesentery_points", 32, 1, 100000, &d->mesentery_points) ||
+      read_vector(&r, "mesentery_root", 6, no_root, d->mesentery_root))
+    return -1;
+  if (d->mesentery_stiffness > 0.0 && !raw(&r, "mesentery_root"))
+    return fail(&r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
+  if (d->mesentery_stiffness == 0.0) d->mesentery_points = 0;
   if (read_count(&r, "skin_rings_per_segment", 4, 1, 64, &c->skin_rings_per_segment) ||
       read_count(&r, "skin_ring_points", 16, 3, 256, &c->skin_ring_points))
     return -1;

@@ -124,3 +124,29 @@ def test_defaults_are_stable_at_any_length(length):
         mujoco.mj_step(model, data)
     assert gut.divergence_count(data) == 0
     assert gut.length(data) == pytest.approx(length, rel=0.02)
+
+
+def test_mesentery_holds_the_bowel_within_its_reach():
+    """Zero gravity, thrown away from its root at 1 m/s: the tension-only tethers stop every
+    point within slack + a small stretch of its root point; without them it flies away."""
+    distances = {}
+    for stiffness in (0.0, 50.0):
+        config = dict(length=0.6, control_points=40, shape="line", start=[-0.3, 0, 0.05], damping=2,
+                      mesentery_stiffness=stiffness, mesentery_length=0.1, mesentery_points=16)
+        if stiffness:
+            config["mesentery_root"] = [-0.3, 0, 0, 0.3, 0, 0]
+        model, data, gut = compile_scene(options='timestep="0.002" gravity="0 0 0"', **config)
+        gut.velocities(data)[:] = [0.0, 0.0, 1.0]
+        while data.time < 2.0:
+            mujoco.mj_step(model, data)
+        s = (np.arange(16) + 0.5) / 16
+        tethered = viscera.spline_points(gut.positions(data), s)
+        roots = np.stack([-0.3 + 0.6 * s, np.zeros(16), np.zeros(16)], axis=1)
+        distances[stiffness] = np.linalg.norm(tethered - roots, axis=1).max()
+    assert distances[0.0] > 0.5  # free: carried far away
+    assert distances[50.0] < 0.1 + 0.02  # held: slack plus a small stretch
+
+
+def test_mesentery_needs_its_root():
+    with pytest.raises(ValueError, match="mesentery_root"):
+        compile_scene(mesentery_stiffness=10.0)

@@ -52,6 +52,11 @@ static vsc_status validate(const vsc_rod_def* d) {
       !finite_nonneg(d->contact_damping) || !finite_nonneg(d->self_friction))
     return VSC_ERROR_INVALID_ARGUMENT;
   if (d->pinned_count < 0 || (d->pinned_count > 0 && !d->pinned)) return VSC_ERROR_INVALID_ARGUMENT;
+  if (d->mesentery_points < 0 || d->mesentery_points > VSC_MAX_COLLISION_SPHERES ||
+      !finite_nonneg(d->mesentery_stiffness) || !finite_nonneg(d->mesentery_length))
+    return VSC_ERROR_INVALID_ARGUMENT;
+  for (int i = 0; i < 6; ++i)
+    if (!isfinite(d->mesentery_root[i])) return VSC_ERROR_INVALID_ARGUMENT;
   for (int i = 0; i < d->pinned_count; ++i)
     if (d->pinned[i] < 0 || d->pinned[i] >= d->control_count) return VSC_ERROR_INVALID_ARGUMENT;
   return VSC_OK;
@@ -154,11 +159,12 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
+  rod->tether_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * (size_t)(def->mesentery_points > 0 ? def->mesentery_points : 1));
   vsc_grid_create(spheres, &rod->grid);
   rod->lists = vsc_contact_lists_create(spheres);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
       !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
-      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid || !rod->lists) {
+      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid || !rod->lists || !rod->tether_basis) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
@@ -177,6 +183,8 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
   build_gather(rod);
+  for (int i = 0; i < def->mesentery_points; ++i)
+    rod->tether_basis[i] = vsc_spline_basis(n, ((double)i + 0.5) / (double)def->mesentery_points);
   // self-contact exclusion: segments whose nearest points are closer along
   // the rest axis than pi r (the arc of the tightest fold, whose centre line
   // has radius r) are neighbours: collide when (b - a - 1) spacing >= pi r
@@ -208,6 +216,7 @@ void vsc_rod_destroy(vsc_rod* rod) {
   free(rod->sphere_velocity);
   free(rod->stage);
   free(rod->touch);
+  free(rod->tether_basis);
   vsc_grid_destroy(rod->grid);
   vsc_contact_lists_destroy(rod->lists);
   free(rod);
@@ -324,6 +333,30 @@ double vsc_rod_length(vsc_rod* rod, const double* q) {
   return spring_edges(rod, 1);
 }
 
+// Mesentery tether i: from the axis at abscissa (i + 1/2) / count to the
+// same fraction of the root line; it pulls only when longer than its slack
+// length: E_i = 1/2 k max(0, d - L)^2. Adds -dE/dq to Q if Q is not NULL;
+// returns the tethers' energy (J).
+static double mesentery(const vsc_rod* rod, const double* q, double* Q) {
+  const vsc_rod_def* d = &rod->def;
+  if (d->mesentery_points <= 0 || d->mesentery_stiffness <= 0.0) return 0.0;
+  double energy = 0.0;
+  for (int i = 0; i < d->mesentery_points; ++i) {
+    double f = ((double)i + 0.5) / (double)d->mesentery_points, p[3], e[3];
+    vsc_basis_point(&rod->tether_basis[i], q, p);
+    for (int c = 0; c < 3; ++c) e[c] = d->mesentery_root[c] + f * (d->mesentery_root[3 + c] - d->mesentery_root[c]) - p[c];
+    double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), stretch = length - d->mesentery_length;
+    if (!(stretch > 0.0)) continue;  // slack: no force
+    energy += 0.5 * d->mesentery_stiffness * stretch * stretch;
+    if (!Q) continue;
+    double scale = d->mesentery_stiffness * stretch / length, force[3] = {scale * e[0], scale * e[1], scale * e[2]};
+    const vsc_basis* b = &rod->tether_basis[i];
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
+      for (int c = 0; c < 3; ++c) Q[3 * (b->first + j) + c] += b->weight[j] * force[c];
+  }
+  return energy;
+}
+
 void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v, double* Q) {
   int n = rod->n;
   for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj
@@ -335,6 +368,7 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
   vsc_rod_update_samples(rod, q);
   elastic_sample_forces(rod);
   gather_to_control(rod, Q);
+  mesentery(rod, q, Q);
   rod->touched = world->geom_count > 0 || rod->def.self_collision;
   if (rod->touched) {
     vsc_rod_update_spheres(rod, q, v);
@@ -364,7 +398,7 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
     double d = rod->edge_length[a] - rod->rest_spacing;
     e += 0.5 * rod->stretch_spring * d * d;
   }
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl;
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL);
   if (N > 2) {
     spring_edges(rod, 2);
     for (int a = 0; a + 2 < N; ++a) {

@@ -46,6 +46,11 @@ typedef struct vsc_rod_def {
   double self_friction;              ///< Coulomb coefficient against itself (>= 0)
   const int* pinned;                 ///< indices of control points fixed in space (copied)
   int pinned_count;                  ///< number of entries of `pinned`
+  // mesentery: tension-only tethers from points of the axis to a root line
+  int mesentery_points;              ///< tethers at abscissae (i + 1/2) / count (0: none)
+  double mesentery_stiffness;        ///< stiffness of each tether (N/m, >= 0; 0: none)
+  double mesentery_length;           ///< slack length of every tether (m, >= 0)
+  double mesentery_root[6];          ///< root line, from (m, 3) to (m, 3); tether i ends at the same fraction of it
 } vsc_rod_def;
 
 /// Resolution limits: beyond them a definition is rejected (no overflow, no hang).
@@ -108,6 +113,7 @@ typedef struct vsc_rod {
   int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
   double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
   int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
+  vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
 } vsc_rod;
 
@@ -140,7 +146,7 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
 void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
                           double* acceleration);
 
-/// Elastic energy E (J): springs and global stretch.
+/// Elastic energy E (J): springs, global stretch and mesentery tethers.
 double vsc_rod_elastic_energy(vsc_rod* rod, const double* q);
 
 /// Gravitational potential energy (J), zero at the origin.
