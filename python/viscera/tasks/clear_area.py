@@ -1,0 +1,103 @@
+"""Clear the target area: move the bowel off a patch of the posterior wall.
+
+Suite-style task (a Physics with named accessors, a Task, a load() front door)
+on assets/scenes/abdomen.xml. Actions: the tools' position actuators (their
+control ranges). Observations, in order: tool joint positions, the force the
+intestine exerts on each tool (the tool force sensors), intestine axis points
+(32 along the axis, m), and the target's coverage grid. Reward: the fraction
+of the target area uncovered, in [0, 1]: the target rectangle is sampled on a
+10 x 10 grid of points, and a point is covered when the intestine's tube lies
+over it (an axis point within one radius of it in the wall's plane). The
+episode ends after `time_limit` s or when the area is uncovered (reward 1).
+"""
+
+from __future__ import annotations
+
+import collections
+import pathlib
+
+import numpy as np
+from dm_control import mujoco as dm_mujoco
+from dm_control.rl import control
+from dm_control.suite import base
+
+import viscera
+
+SCENE = pathlib.Path(__file__).resolve().parents[3] / "assets" / "scenes" / "abdomen.xml"
+GRID = 10            # target sampling points per side
+AXIS_SAMPLES = 32    # intestine axis points observed
+TOOLS = ("grasper", "retractor")
+
+
+def _scene_path() -> pathlib.Path:
+    """The scene, from the source tree or the installed package's data."""
+    packaged = pathlib.Path(__file__).resolve().parent.parent / "assets" / "abdomen.xml"
+    return SCENE if SCENE.exists() else packaged
+
+
+class Physics(dm_mujoco.Physics):
+    """The abdomen with named accessors for the task."""
+
+    def intestine(self) -> viscera.Intestine:
+        return viscera.intestine(self.model.ptr)
+
+    def axis_points(self, count: int = AXIS_SAMPLES) -> np.ndarray:
+        return self.intestine().axis_points(self.data.ptr, count)
+
+    def target_points(self) -> np.ndarray:
+        """The GRID x GRID sampling points of the target rectangle (m, world frame)."""
+        centre = self.named.data.site_xpos["target_area"]
+        half = self.named.model.site_size["target_area"][:2]
+        u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
+        x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
+        return np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
+
+    def coverage(self) -> np.ndarray:
+        """1 where the tube lies over a target point (within one radius in the wall's plane)."""
+        gut = self.intestine()
+        axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)
+        points = self.target_points()
+        planar = np.linalg.norm(points[:, None, :2] - axis[None, :, :2], axis=-1)
+        return (planar.min(axis=1) <= gut.radius).astype(float)
+
+    def uncovered_fraction(self) -> float:
+        return float(1.0 - self.coverage().mean())
+
+    def tool_forces(self) -> np.ndarray:
+        return np.concatenate([self.named.data.sensordata[f"{tool}_force"] for tool in TOOLS])
+
+    def tool_joints(self) -> np.ndarray:
+        names = [j for j in self.named.data.qpos.axes.row.names if j.split("_")[0] in TOOLS]
+        return self.named.data.qpos[names].copy()
+
+
+class ClearArea(base.Task):
+    """Uncover the target area; reward is the uncovered fraction."""
+
+    def __init__(self, random=None):
+        super().__init__(random=random)
+
+    def initialize_episode(self, physics: Physics) -> None:
+        # the intestine starts from the scene's shape (reset writes it); tools start withdrawn
+        super().initialize_episode(physics)
+
+    def get_observation(self, physics: Physics) -> collections.OrderedDict:
+        observation = collections.OrderedDict()
+        observation["tool_joints"] = physics.tool_joints()
+        observation["tool_forces"] = physics.tool_forces()
+        observation["intestine_axis"] = physics.axis_points().ravel()
+        observation["target_coverage"] = physics.coverage()
+        return observation
+
+    def get_reward(self, physics: Physics) -> float:
+        return physics.uncovered_fraction()
+
+    def get_termination(self, physics: Physics):
+        return 0.0 if physics.uncovered_fraction() >= 1.0 else None
+
+
+def load(seed: int | None = None, time_limit: float = 20.0, control_timestep: float = 0.02) -> control.Environment:
+    """The clear_area environment (time limit and control period in s)."""
+    physics = Physics.from_xml_path(str(_scene_path()))
+    task = ClearArea(random=np.random.RandomState(seed))
+    return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
