@@ -33,17 +33,23 @@ VSC_EXPORT int viscera_spline_basis(int n, int count, const double* s, int* firs
   return 0;
 }
 
+// The config of plugin instance `instance` if it is a viscera.intestine
+// (returns 0; the caller frees it), else -1.
+static int read_intestine(const mjModel* m, int instance, vsc_plugin_config* config) {
+  char error[256];
+  int slot = -1;
+  if (instance < 0 || instance >= m->nplugin) return -1;
+  if (!mjp_getPlugin("viscera.intestine", &slot) || m->plugin[instance] != slot) return -1;
+  return vsc_plugin_config_read(m, instance, config, error, (int)sizeof(error)) ? -1 : 0;
+}
+
 /// Resolved mechanics of intestine `instance` of model `m`, defaults applied,
 /// as the plugin itself reads them: out = {length (m), radius (m), mass (kg),
 /// control points, collision spheres, samples per segment}. Returns 0, or -1
 /// if the instance is not a viscera.intestine.
 VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out[6]) {
   vsc_plugin_config config;
-  char error[256];
-  int slot = -1;
-  if (instance < 0 || instance >= m->nplugin) return -1;
-  if (!mjp_getPlugin("viscera.intestine", &slot) || m->plugin[instance] != slot) return -1;
-  if (vsc_plugin_config_read(m, instance, &config, error, (int)sizeof(error))) return -1;
+  if (read_intestine(m, instance, &config)) return -1;
   out[0] = config.rod.length;
   out[1] = config.rod.radius;
   out[2] = config.rod.mass;
@@ -96,48 +102,40 @@ VSC_EXPORT double viscera_collision_pass_seconds(const double* xyz, int count, d
   return best;
 }
 
-// The skin definition of intestine `instance`, from its config.
-static int skin_def(const mjModel* m, int instance, vsc_skin_def* def, int* n) {
+// The skin definition of intestine `instance`: its config, with the resolution
+// overridden where rings_per_segment / ring_points are positive.
+static int skin_def(const mjModel* m, int instance, int rings_per_segment, int ring_points, vsc_skin_def* def,
+                    int* n) {
   vsc_plugin_config config;
-  char error[256];
-  int slot = -1;
-  if (instance < 0 || instance >= m->nplugin) return -1;
-  if (!mjp_getPlugin("viscera.intestine", &slot) || m->plugin[instance] != slot) return -1;
-  if (vsc_plugin_config_read(m, instance, &config, error, (int)sizeof(error))) return -1;
-  def->rings_per_segment = config.skin_rings_per_segment;
-  def->ring_points = config.skin_ring_points;
+  if (read_intestine(m, instance, &config)) return -1;
+  def->rings_per_segment = rings_per_segment > 0 ? rings_per_segment : config.skin_rings_per_segment;
+  def->ring_points = ring_points > 0 ? ring_points : config.skin_ring_points;
   def->radius_min = config.radius_min;
   def->radius_max = config.radius_max;
   *n = config.rod.control_count;
   vsc_plugin_config_free(&config);
-  return 0;
+  return def->ring_points >= 3 ? 0 : -1;
 }
 
-/// Vertex and triangle counts of the skin of intestine `instance` (-1 if not one).
-VSC_EXPORT int viscera_skin_size(const mjModel* m, int instance, int* vertices, int* triangles) {
+/// Vertex and triangle counts of the skin of intestine `instance` (-1 if not
+/// one); a positive rings_per_segment / ring_points overrides the config's.
+VSC_EXPORT int viscera_skin_size(const mjModel* m, int instance, int rings_per_segment, int ring_points,
+                                 int* vertices, int* triangles) {
   vsc_skin_def def;
   int n;
-  if (skin_def(m, instance, &def, &n)) return -1;
+  if (skin_def(m, instance, rings_per_segment, ring_points, &def, &n)) return -1;
   *vertices = vsc_skin_vertex_count(n, &def);
   *triangles = vsc_skin_triangle_count(n, &def);
   return 0;
 }
 
 /// Skin of intestine `instance` for control points q (m, 3n) into arrays sized
-/// by viscera_skin_size: vertices (m), unit normals, triangle vertex indices.
-VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, const double* q, double* vertices, double* normals,
-                                  int* triangles) {
+/// by viscera_skin_size with the same overrides: vertices (m), unit normals,
+/// triangle vertex indices.
+VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, int rings_per_segment, int ring_points,
+                                  const double* q, double* vertices, double* normals, int* triangles) {
   vsc_skin_def def;
   int n;
-  if (skin_def(m, instance, &def, &n)) return -1;
-  return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
-}
-
-/// Skin of n control points q with an explicit resolution and radii (for
-/// coarser recordings): sizes as vsc_skin_vertex_count / vsc_skin_triangle_count.
-VSC_EXPORT int viscera_skin_build_with(const double* q, int n, int rings_per_segment, int ring_points,
-                                       double radius_min, double radius_max, double* vertices, double* normals,
-                                       int* triangles) {
-  vsc_skin_def def = {rings_per_segment, ring_points, radius_min, radius_max};
+  if (skin_def(m, instance, rings_per_segment, ring_points, &def, &n)) return -1;
   return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
 }

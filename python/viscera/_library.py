@@ -52,13 +52,11 @@ def load() -> pathlib.Path:
                 ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_int)]
             _ctypes_library.viscera_skin_size.restype = ctypes.c_int
             _ctypes_library.viscera_skin_size.argtypes = [
-                ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int)]
+                ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.POINTER(ctypes.c_int),
+                ctypes.POINTER(ctypes.c_int)]
             _ctypes_library.viscera_skin_build.restype = ctypes.c_int
-            _ctypes_library.viscera_skin_build.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
-            _ctypes_library.viscera_skin_build_with.restype = ctypes.c_int
-            _ctypes_library.viscera_skin_build_with.argtypes = [
-                ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_double,
-                ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+            _ctypes_library.viscera_skin_build.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int] + [
+                ctypes.c_void_p] * 4
             _loaded = path
         return _loaded
 

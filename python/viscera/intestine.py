@@ -194,32 +194,28 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
     keys skin_rings_per_segment and skin_ring_points (or the arguments, e.g. a
     coarser skin for recordings), radii from radius_min and radius_max.
     """
+    if (rings_per_segment is not None and rings_per_segment < 1) or (ring_points is not None and ring_points < 3):
+        raise ValueError(f"a skin needs rings_per_segment >= 1 and ring_points >= 3, got {rings_per_segment} "
+                         f"and {ring_points}")
     gut = intestine(model, instance) if isinstance(instance, str) else None
     index = gut.instance if gut else int(instance)
+    rings, points = rings_per_segment or 0, ring_points or 0  # 0: the config's resolution
     lib = _library.native()
     nv, nt = ctypes.c_int(0), ctypes.c_int(0)
     address = ctypes.c_void_p(model._address)
-    if lib.viscera_skin_size(address, index, ctypes.byref(nv), ctypes.byref(nt)) != 0:
+    if lib.viscera_skin_size(address, index, rings, points, ctypes.byref(nv), ctypes.byref(nt)) != 0:
         raise KeyError(f"plugin instance {instance!r} is not a viscera.intestine")
     gut = gut or next(g for g in intestines(model) if g.instance == index)
     q = np.ascontiguousarray(gut.positions(data), dtype=np.float64)
-    if rings_per_segment is not None or ring_points is not None:
-        rings = rings_per_segment or int(gut.config.get("skin_rings_per_segment") or 4)
-        points = ring_points or int(gut.config.get("skin_ring_points") or 16)
-        if rings < 1 or points < 3:
-            raise ValueError(f"a skin needs rings_per_segment >= 1 and ring_points >= 3, got {rings} and {points}")
-        r_max = float(gut.config.get("radius_max") or gut.radius)
-        r_min = float(gut.config.get("radius_min") or r_max)
-        count = ((gut.control_count - 1) * rings + 1) * points
-        vertices, normals = np.empty((count + 2, 3)), np.empty((count + 2, 3))
-        triangles = np.empty((2 * count, 3), dtype=np.int32)
-        status = lib.viscera_skin_build_with(q.ctypes.data_as(ctypes.c_void_p), gut.control_count, rings, points,
-                                             r_min, r_max, vertices.ctypes.data_as(ctypes.c_void_p),
-                                             normals.ctypes.data_as(ctypes.c_void_p),
-                                             triangles.ctypes.data_as(ctypes.c_void_p))
-        if status != 0:
-            raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
-        return vertices, normals, triangles
+    vertices = np.empty((nv.value, 3))
+    normals = np.empty((nv.value, 3))
+    triangles = np.empty((nt.value, 3), dtype=np.int32)
+    status = lib.viscera_skin_build(address, index, rings, points, q.ctypes.data_as(ctypes.c_void_p),
+                                    vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
+                                    triangles.ctypes.data_as(ctypes.c_void_p))
+    if status != 0:
+        raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
+    return vertices, normals, triangles
     vertices = np.empty((nv.value, 3))
     normals = np.empty((nv.value, 3))
     triangles = np.empty((nt.value, 3), dtype=np.int32)
