@@ -15,7 +15,9 @@ const char* const vsc_plugin_attributes[] = {
     "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
     "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
-    "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root"};
+    "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
+    "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
+    "grasp_slip_force"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -171,8 +173,10 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
     c->shape = VSC_SHAPE_POLYLINE;
   } else if (strcmp(text, "serpentine") == 0) {
     c->shape = VSC_SHAPE_SERPENTINE;
+  } else if (strcmp(text, "control_points") == 0) {
+    c->shape = VSC_SHAPE_CONTROL_POINTS;
   } else {
-    return fail(r, "attribute 'shape' = '%s' must be one of line, polyline, serpentine", text);
+    return fail(r, "attribute 'shape' = '%s' must be one of line, polyline, serpentine, control_points", text);
   }
   if (read_vector(r, "start", 3, default_start, c->start)) return -1;
   if (read_vector(r, "direction", 3, default_direction, c->direction)) return -1;
@@ -193,8 +197,8 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
   c->points = NULL;
   c->point_count = 0;
   const char* points = raw(r, "points");
-  if (c->shape == VSC_SHAPE_POLYLINE) {
-    if (!points) return fail(r, "attribute 'points' is required by shape 'polyline' (3k numbers, m)");
+  if (c->shape == VSC_SHAPE_POLYLINE || c->shape == VSC_SHAPE_CONTROL_POINTS) {
+    if (!points) return fail(r, "attribute 'points' is required by shape '%s' (3k numbers, m)", raw(r, "shape"));
     int got = parse_numbers(points, NULL, MAX_NUMBERS);
     if (got < 0) return fail(r, "attribute 'points' must be finite numbers (at most %d)", MAX_NUMBERS);
     c->points = (double*)malloc(sizeof(double) * (size_t)(got > 0 ? got : 1));
@@ -203,8 +207,58 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
     if (got % 3 != 0 || got < 6)
       return fail(r, "attribute 'points' holds %d numbers: a polyline needs at least 2 points of 3 numbers", got);
     c->point_count = got / 3;
+    if (c->shape == VSC_SHAPE_CONTROL_POINTS && c->point_count != c->rod.control_count)
+      return fail(r, "attribute 'points' holds %d points: shape 'control_points' needs one per control point (%d)",
+                  c->point_count, c->rod.control_count);
   }
   return 0;
+}
+
+// Whitespace-separated names of model objects of type `type` into ids; returns
+// the count, or -1 (with the message) on an unknown name or too many names.
+static int read_names(reader* r, const char* key, mjtObj type, const char* what, int* ids, int capacity) {
+  const char* text = raw(r, key);
+  if (!text) return 0;
+  int count = 0;
+  const char* p = text;
+  char name[256];
+  for (;;) {
+    while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') ++p;
+    if (!*p) return count;
+    int length = 0;
+    while (p[length] && p[length] != ' ' && p[length] != '\t' && p[length] != '\n' && p[length] != '\r') ++length;
+    if (length >= (int)sizeof(name)) return fail(r, "attribute '%s' = '%s': a name is too long", key, text);
+    if (count >= capacity) return fail(r, "attribute '%s' = '%s' names more than %d %ss", key, text, capacity, what);
+    memcpy(name, p, (size_t)length);
+    name[length] = 0;
+    int id = mj_name2id(r->m, type, name);
+    if (id < 0) return fail(r, "attribute '%s' = '%s': the model has no %s named '%s'", key, text, what, name);
+    ids[count++] = id;
+    p += length;
+  }
+}
+
+static int read_graspers(reader* r, vsc_plugin_config* c) {
+  vsc_grasper_config* g = &c->grasp;
+  int joints = 0;
+  g->count = read_names(r, "grasp_sites", mjOBJ_SITE, "site", g->site, VSC_MAX_GRASPERS);
+  if (g->count < 0) return -1;
+  joints = read_names(r, "grasp_joints", mjOBJ_JOINT, "joint", g->joint, VSC_MAX_GRASPERS);
+  if (joints < 0) return -1;
+  if (joints != g->count)
+    return fail(r, "attributes 'grasp_sites' = '%s' and 'grasp_joints' = '%s' must name as many sites as joints",
+                raw(r, "grasp_sites") ? raw(r, "grasp_sites") : "", raw(r, "grasp_joints") ? raw(r, "grasp_joints") : "");
+  for (int i = 0; i < joints; ++i) {
+    int type = r->m->jnt_type[g->joint[i]];
+    if (type != mjJNT_HINGE && type != mjJNT_SLIDE)
+      return fail(r, "attribute 'grasp_joints' = '%s': joint '%s' must be a hinge or a slide (the jaw opening)",
+                  raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
+  }
+  return read_number(r, "grasp_closed_below", 0.1, &g->closed_below, NULL) ||
+         read_positive(r, "grasp_reach", 2.0 * c->rod.radius, &g->reach, "m") ||
+         read_nonnegative(r, "grasp_stiffness", 1000.0, &g->stiffness, "N/m") ||
+         read_nonnegative(r, "grasp_damping", 2.0, &g->damping, "N s/m") ||
+         read_positive(r, "grasp_slip_force", 5.0, &g->slip_force, "N");
 }
 
 int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {
@@ -284,7 +338,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (integrator && strcmp(integrator, "rk4") != 0)
     return fail(&r, "attribute 'integrator' = '%s' must be rk4", integrator);
   c->integrator = VSC_INTEGRATOR_RK4;
-  if (read_pinned(&r, c) || read_shape(&r, c)) {
+  if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c)) {
     vsc_plugin_config_free(c);
     return -1;
   }
@@ -315,6 +369,9 @@ int vsc_plugin_config_layout(const vsc_plugin_config* c, double* q, char* error,
     case VSC_SHAPE_SERPENTINE:
       status = vsc_layout_serpentine(n, c->rod.length, c->rod.radius, c->box, q);
       what = "serpentine 'box'";
+      break;
+    case VSC_SHAPE_CONTROL_POINTS:
+      memcpy(q, c->points, sizeof(double) * 3 * (size_t)n);
       break;
   }
   if (status == VSC_OK) return 0;

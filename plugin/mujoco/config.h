@@ -13,7 +13,29 @@ extern const char* const vsc_plugin_attributes[];
 extern const int vsc_plugin_attribute_count;
 
 /// Initial shape of the axis.
-typedef enum vsc_shape_kind { VSC_SHAPE_LINE, VSC_SHAPE_POLYLINE, VSC_SHAPE_SERPENTINE } vsc_shape_kind;
+typedef enum vsc_shape_kind {
+  VSC_SHAPE_LINE,
+  VSC_SHAPE_POLYLINE,
+  VSC_SHAPE_SERPENTINE,
+  VSC_SHAPE_CONTROL_POINTS  ///< `points` are the n control points themselves (e.g. a settled state)
+} vsc_shape_kind;
+
+/// Most grasping jaws one intestine serves.
+#define VSC_MAX_GRASPERS 8
+
+/// Jaws that take hold of the axis (see intestine.c): grasper i's anchor is
+/// site `site[i]`; it is closed while joint `joint[i]`'s position is at most
+/// `closed_below`.
+typedef struct vsc_grasper_config {
+  int count;                     ///< graspers (0: none)
+  int site[VSC_MAX_GRASPERS];    ///< site ids: where the jaws hold
+  int joint[VSC_MAX_GRASPERS];   ///< hinge or slide joint ids: the jaw opening
+  double closed_below;           ///< jaw position (rad or m) at or below which it is closed
+  double reach;                  ///< farthest axis point a closing jaw takes (m, from the site)
+  double stiffness;              ///< hold spring (N/m)
+  double damping;                ///< hold damping (N s/m)
+  double slip_force;             ///< the hold slips when its spring pulls harder (N)
+} vsc_grasper_config;
 
 /// Everything an instance's config defines. Owns `pinned` and `points`.
 typedef struct vsc_plugin_config {
@@ -32,6 +54,7 @@ typedef struct vsc_plugin_config {
   double* points;             ///< polyline vertices (m, 3 x point_count)
   int point_count;
   int* pinned;                ///< pinned control point indices
+  vsc_grasper_config grasp;   ///< jaws that hold the axis
 } vsc_plugin_config;
 
 /// Parse and validate the config of plugin instance `instance`. On a bad

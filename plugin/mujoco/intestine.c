@@ -17,6 +17,7 @@
 #include "cache_registry.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
+#include "viscera/vsc_grasp.h"
 
 #define ERROR_SIZE 512
 
@@ -36,6 +37,8 @@ typedef struct intestine {
   vsc_convex* convex;     // hulls of mesh geoms (geom_count, face_count 0 elsewhere)
   vsc_heightfield* heightfield;  // height fields (geom_count)
   int warned_passive_off; // the passive-off warning was given for this data
+  vsc_grasp grasps[VSC_MAX_GRASPERS];  // the holds of this step
+  int grasp_owner[VSC_MAX_GRASPERS];   // which grasper each hold belongs to
 } intestine;
 
 // Every MuJoCo geom type collides: meshes as their convex hull (exact
@@ -186,15 +189,20 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   return it;
 }
 
+// Per grasper state: status, held abscissa s, the held point in the site's
+// frame (m, 3) so that taking hold moves nothing, slip count.
+#define GRASP_STATE_SIZE 6
+enum { GRASP_OPEN = 0, GRASP_HOLDING = 1, GRASP_CLOSED_EMPTY = 2 };
+
 // plugin_state layout (see intestine.h): positions, velocities, divergence
 // count, the wrench on every body, the friction state of every sphere.
 static int wrench_address(int n) { return 6 * n + 1; }
 static int stick_address(const mjModel* m, int n) { return wrench_address(n) + 6 * (int)m->nbody; }
-static int state_size(const mjModel* m, int n, int spheres) {
-  return stick_address(m, n) + VSC_STICK_SIZE * spheres;
+static int grasp_address(const mjModel* m, const vsc_plugin_config* c) {
+  return stick_address(m, c->rod.control_count) + VSC_STICK_SIZE * c->rod.collision_sphere_count;
 }
 static int config_state_size(const mjModel* m, const vsc_plugin_config* c) {
-  return state_size(m, c->rod.control_count, c->rod.collision_sphere_count);
+  return grasp_address(m, c) + GRASP_STATE_SIZE * c->grasp.count;
 }
 
 static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, const double* initial_q, mjtNum* state) {
@@ -202,6 +210,7 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
   if (initial_q != state) memcpy(state, initial_q, sizeof(double) * 3 * (size_t)n);
   memset(state + 3 * n, 0, sizeof(double) * (size_t)(stick_address(m, n) - 3 * n));
   vsc_stick_clear(state + stick_address(m, n), c->rod.collision_sphere_count);
+  memset(state + grasp_address(m, c), 0, sizeof(double) * GRASP_STATE_SIZE * (size_t)c->grasp.count);
 }
 
 // The caches of this data, from the registry (never from d->plugin_data, which
@@ -418,6 +427,83 @@ static void intestine_compute(const mjModel* m, mjData* d, int instance, int cap
   }
 }
 
+// Jaws take and lose their hold: a closing jaw (open, now at or below
+// closed_below) holds the axis point nearest its site if within reach, else it
+// stays closed empty; an opening jaw lets go. Fills it->grasps with this
+// step's holds (anchors at the step start) and returns their count.
+static int update_grasps(const mjModel* m, mjData* d, intestine* it, const mjtNum* q, mjtNum* grasp_state) {
+  const vsc_grasper_config* g = &it->config.grasp;
+  int holds = 0;
+  for (int i = 0; i < g->count; ++i) {
+    mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
+    int site = g->site[i];
+    const mjtNum* origin = d->site_xpos + 3 * site;
+    const mjtNum* rotation = d->site_xmat + 9 * site;  // site to world, row major
+    int closed = d->qpos[m->jnt_qposadr[g->joint[i]]] <= g->closed_below;
+    if (!closed) {
+      st[0] = GRASP_OPEN;
+      continue;
+    }
+    if (st[0] == GRASP_OPEN) {  // closing now: take the nearest axis point within reach
+      double s, point[3];
+      double distance = vsc_rod_nearest_abscissa(it->rod, q, origin, &s);
+      st[0] = GRASP_CLOSED_EMPTY;
+      if (distance <= g->reach) {
+        vsc_basis basis = vsc_spline_basis(it->config.rod.control_count, s);
+        vsc_basis_point(&basis, q, point);
+        double offset[3] = {point[0] - origin[0], point[1] - origin[1], point[2] - origin[2]};
+        st[0] = GRASP_HOLDING;
+        st[1] = s;
+        for (int a = 0; a < 3; ++a)  // world offset into the site frame: R^T offset
+          st[2 + a] = rotation[a] * offset[0] + rotation[3 + a] * offset[1] + rotation[6 + a] * offset[2];
+      }
+    }
+    if (st[0] != GRASP_HOLDING) continue;
+    vsc_grasp* hold = &it->grasps[holds];
+    it->grasp_owner[holds++] = i;
+    hold->abscissa = st[1] < 0.0 ? 0.0 : (st[1] > 1.0 ? 1.0 : st[1]);
+    mjtNum arm[3], velocity[6];
+    mju_mulMatVec3(arm, rotation, st + 2);
+    mj_objectVelocity(m, d, mjOBJ_SITE, site, velocity, 0);  // rotation, translation; world frame
+    for (int a = 0; a < 3; ++a) hold->anchor[a] = origin[a] + arm[a];
+    hold->anchor_velocity[0] = velocity[3] + velocity[1] * arm[2] - velocity[2] * arm[1];
+    hold->anchor_velocity[1] = velocity[4] + velocity[2] * arm[0] - velocity[0] * arm[2];
+    hold->anchor_velocity[2] = velocity[5] + velocity[0] * arm[1] - velocity[1] * arm[0];
+    hold->stiffness = g->stiffness;
+    hold->damping = g->damping;
+    hold->reaction[0] = hold->reaction[1] = hold->reaction[2] = 0.0;
+  }
+  return holds;
+}
+
+// After the step: each hold's reaction goes to its jaw's body (force at the
+// anchor); a hold that pulled harder than slip_force slips out of the jaw
+// (the jaw stays closed empty until it opens).
+static void release_slipping_grasps(const mjModel* m, const mjData* d, intestine* it, int holds,
+                                    mjtNum* grasp_state, mjtNum* wrench) {
+  const vsc_grasper_config* g = &it->config.grasp;
+  for (int h = 0; h < holds; ++h) {
+    const vsc_grasp* hold = &it->grasps[h];
+    int i = it->grasp_owner[h], body = m->site_bodyid[g->site[i]];
+    const double* f = hold->reaction;
+    if (!all_finite(f, 3)) continue;
+    const mjtNum* com = d->xipos + 3 * body;
+    double arm[3] = {hold->anchor[0] - com[0], hold->anchor[1] - com[1], hold->anchor[2] - com[2]};
+    mjtNum* out = wrench + 6 * body;
+    out[0] += f[0];
+    out[1] += f[1];
+    out[2] += f[2];
+    out[3] += arm[1] * f[2] - arm[2] * f[1];
+    out[4] += arm[2] * f[0] - arm[0] * f[2];
+    out[5] += arm[0] * f[1] - arm[1] * f[0];
+    if (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] > g->slip_force * g->slip_force) {
+      mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
+      st[0] = GRASP_CLOSED_EMPTY;
+      st[5] += 1.0;
+    }
+  }
+}
+
 // Integrate the rod over one MuJoCo step against the geoms' poses at the step start.
 static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
@@ -445,6 +531,9 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (world.geom_count > 0) update_geoms(m, d, it);
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
   world.geom_wrench = it->geom_wrench;
+  mjtNum* grasp_state = state + grasp_address(m, &it->config);
+  world.grasps = it->grasps;
+  world.grasp_count = update_grasps(m, d, it, state, grasp_state);
   vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, state + stick_address(m, n),
                                    m->opt.timestep, it->config.substeps);
   // the step's average reaction per body, as force and torque about its centre of mass
@@ -464,6 +553,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     out[4] += w[4] + arm[2] * w[0] - arm[0] * w[2];
     out[5] += w[5] + arm[0] * w[1] - arm[1] * w[0];
   }
+  release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
   if (status == VSC_ERROR_DIVERGED) {
     double count = state[6 * n] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))  // warn at counts 1, 2, 4, 8...: no spam

@@ -9,6 +9,9 @@
 //   6B numbers     per body, the reaction of the intestine over the last step:
 //                  force (N), torque about the body's centre of mass (N m), world
 //   8S numbers     per sphere, friction state (see vsc_contact.h)
+//   6G numbers     per grasper (grasp_sites), its hold: status (0 open, 1 holding,
+//                  2 closed without a hold: missed or slipped), held abscissa
+//                  s in [0, 1], held point in the site frame (m, 3), slip count
 // plugin_data holds only caches derived from the model (the rod's mass matrix
 // factor, basis tables, scratch), one per mjData.
 #ifndef VISCERA_PLUGIN_INTESTINE_H

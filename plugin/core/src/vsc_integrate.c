@@ -2,6 +2,7 @@
 #include "viscera/vsc_integrate.h"
 
 #include "viscera/vsc_contact.h"
+#include "viscera/vsc_grasp.h"
 
 #include <math.h>
 #include <string.h>
@@ -83,6 +84,8 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
       if (stick) vsc_stick_clear(stick, rod->def.collision_sphere_count);
       if (world->geom_wrench)  // the failed substeps' forces must not reach the bodies
         memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
+      for (int g = 0; g < world->grasp_count; ++g)
+        world->grasps[g].reaction[0] = world->grasps[g].reaction[1] = world->grasps[g].reaction[2] = 0.0;
     } else if (stick) {
       vsc_rod_update_stick(rod, stick, h);  // from the last stage's contacts
     }

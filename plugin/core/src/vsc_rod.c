@@ -7,6 +7,7 @@
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_contact.h"
+#include "viscera/vsc_grasp.h"
 
 #define VSC_PI 3.14159265358979323846
 
@@ -369,6 +370,7 @@ void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const
   elastic_sample_forces(rod);
   gather_to_control(rod, Q);
   mesentery(rod, q, Q);
+  if (world->grasp_count > 0) vsc_rod_grasp_forces(rod, world, q, v, Q);
   rod->touched = world->geom_count > 0 || rod->def.self_collision;
   if (rod->touched) {
     vsc_rod_update_spheres(rod, q, v);

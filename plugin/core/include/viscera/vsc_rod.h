@@ -133,6 +133,8 @@ typedef struct vsc_world {
                             ///< about the geom position, world frame), added times wrench_weight
   double wrench_weight;     ///< weight of this evaluation's reactions (vsc_rod_step sets it per stage)
   const double* stick;      ///< optional friction state, VSC_STICK_SIZE per sphere (see vsc_contact.h)
+  struct vsc_grasp* grasps; ///< optional held points (see vsc_grasp.h); their reactions are written
+  int grasp_count;
 } vsc_world;
 
 /// Generalised forces on control points, Q = Q_gravity + Q_contact - grad E

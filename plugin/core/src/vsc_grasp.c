@@ -1,0 +1,44 @@
+// Grasp springs and the nearest axis point (see vsc_grasp.h).
+#include "viscera/vsc_grasp.h"
+
+#include <math.h>
+
+void vsc_rod_grasp_forces(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                          double* Q) {
+  for (int g = 0; g < world->grasp_count; ++g) {
+    vsc_grasp* grasp = &world->grasps[g];
+    vsc_basis basis = vsc_spline_basis(rod->n, grasp->abscissa);
+    double position[3], velocity[3], force[3];
+    vsc_basis_point(&basis, q, position);
+    vsc_basis_point(&basis, v, velocity);
+    for (int c = 0; c < 3; ++c) {
+      force[c] = grasp->stiffness * (grasp->anchor[c] - position[c]) +
+                 grasp->damping * (grasp->anchor_velocity[c] - velocity[c]);
+      grasp->reaction[c] -= world->wrench_weight * force[c];
+    }
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
+      for (int c = 0; c < 3; ++c) Q[3 * (basis.first + j) + c] += basis.weight[j] * force[c];
+  }
+}
+
+double vsc_rod_nearest_abscissa(vsc_rod* rod, const double* q, const double point[3], double* abscissa) {
+  vsc_rod_update_samples(rod, q);
+  int N = rod->sample_count;
+  double best = INFINITY, best_s = 0.0;
+  for (int a = 0; a + 1 < N; ++a) {
+    double e[3] = {rod->sample_x[a + 1] - rod->sample_x[a], rod->sample_y[a + 1] - rod->sample_y[a],
+                   rod->sample_z[a + 1] - rod->sample_z[a]};
+    double w[3] = {point[0] - rod->sample_x[a], point[1] - rod->sample_y[a], point[2] - rod->sample_z[a]};
+    double ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+    double t = ee > 0.0 ? (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) / ee : 0.0;
+    t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+    double d[3] = {w[0] - t * e[0], w[1] - t * e[1], w[2] - t * e[2]};
+    double distance2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (distance2 < best) {
+      best = distance2;
+      best_s = ((double)a + t) / (double)(N - 1);
+    }
+  }
+  *abscissa = best_s;
+  return sqrt(best);
+}

@@ -1,0 +1,124 @@
+"""Settle the intestine into the abdominal cavity and write its rest shape into the scene.
+
+    python -m viscera.settle [--scene assets/scenes/abdomen.xml] [--duration 6]
+
+The scene's intestine is laid out as two serpentines side by side: the first
+half rises from the duodenojejunal flexure (its pinned first point, on the
+posterior wall at the left cranial corner) through two layers in the left half
+of the cavity, crosses over the midline above them, and the second half comes
+down two layers in the right half to the ileocaecal junction (its pinned last
+point, on the posterior wall at the right caudal corner). Both ends thus start
+on the wall. The tools stay withdrawn while it falls and comes to rest; the
+settled control points then replace the `points` config of the scene (shape
+`control_points`), so every episode starts from rest without re-simulating.
+The run is deterministic: rerunning it rewrites the same shape.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import re
+
+import viscera  # first: headless GL backend
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+SCENE = pathlib.Path("assets") / "scenes" / "abdomen.xml"  # run from the repository root
+HALF_WIDTH = (0.15, 0.125)  # the cavity's inner half sizes along x and y (m)
+LAYER_PITCH_RADII = 4.0     # rows and layers 4 radii apart: one tube diameter of clearance
+
+
+def _serpentine(x_outer: float, x_inner: float, y_first: float, y_last: float, rows: int, radius: float,
+                layers: int) -> np.ndarray:
+    """Vertices of a serpentine from the corner (x_outer, y_first) on the wall: rows along x
+    between x_outer and x_inner, stepping along y to y_last, then back on the next layer up."""
+    points = []
+    x_from, x_to = x_outer, x_inner
+    for layer in range(layers):
+        z = radius + layer * LAYER_PITCH_RADII * radius
+        ys = np.linspace(y_first, y_last, rows)
+        for y in (ys if layer % 2 == 0 else ys[::-1]):
+            points += [(x_from, y, z), (x_to, y, z)]
+            x_from, x_to = x_to, x_from
+    return np.array(points)
+
+
+def _first(path: np.ndarray, length: float) -> np.ndarray:
+    """The first `length` m of a polyline."""
+    segment = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    cumulative = np.concatenate([[0.0], np.cumsum(segment)])
+    if cumulative[-1] < length:
+        raise ValueError(f"the cavity holds {cumulative[-1]:.2f} m per half, {length:.2f} m asked")
+    k = int(np.searchsorted(cumulative, length))
+    end = path[k - 1] + (length - cumulative[k - 1]) / segment[k - 1] * (path[k] - path[k - 1])
+    return np.vstack([path[:k], end])
+
+
+def initial_path(length: float, radius: float) -> np.ndarray:
+    """The two-serpentine polyline (m, (k, 3)) of `length` m, both ends on the wall."""
+    clearance = radius + 0.002  # from the walls
+    x_outer, x_inner = HALF_WIDTH[0] - clearance, 0.5 * LAYER_PITCH_RADII * radius
+    y_far = HALF_WIDTH[1] - clearance
+    rows = int((2.0 * y_far) // (LAYER_PITCH_RADII * radius)) + 1
+    left = _serpentine(-x_outer, -x_inner, y_far, -y_far, rows, radius, layers=2)   # left cranial corner
+    right = _serpentine(x_outer, x_inner, -y_far, y_far, rows, radius, layers=2)    # right caudal corner
+    crossing = 0.0
+    for _ in range(100):  # the crossing's length depends on where the halves end
+        half = 0.5 * (length - crossing)
+        a, b = _first(left, half), _first(right, half)
+        top = max(a[-1, 2], b[-1, 2]) + LAYER_PITCH_RADII * radius  # over the top layer
+        path = np.vstack([a, [a[-1, 0], a[-1, 1], top], [b[-1, 0], b[-1, 1], top], b[::-1]])
+        total = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+        if abs(total - length) < 1e-10:
+            break
+        crossing = total - 2.0 * half
+    return path
+
+
+def settle(scene: pathlib.Path, duration: float, quiet: bool = False) -> np.ndarray:
+    """Drop the initial path into the scene's cavity; return the settled control points (m, (n, 3))."""
+    text = scene.read_text()
+    probe = mujoco.MjModel.from_xml_string(_with_shape(text, "line", None))
+    gut = viscera.intestine(probe)
+    path = initial_path(gut.rest_length, gut.radius)
+    model = mujoco.MjModel.from_xml_string(_with_shape(text, "polyline", path))
+    data = mujoco.MjData(model)
+    gut = viscera.intestine(model)
+    mujoco.mj_forward(model, data)
+    steps = int(round(duration / model.opt.timestep))
+    for _ in tqdm(range(steps), desc="settling", unit="step", disable=quiet):
+        mujoco.mj_step(model, data)
+    speed = float(np.abs(gut.velocities(data)).max())
+    if not quiet:
+        print(f"settled after {duration:g} s: fastest control point {speed * 1000:.2f} mm/s, "
+              f"divergences {gut.divergence_count(data)}, length {gut.length(data):.4f} m")
+    if gut.divergence_count(data) or speed > 0.01:
+        raise RuntimeError(f"the intestine has not come to rest (fastest point {speed:.3g} m/s); settle longer")
+    return gut.positions(data).copy()
+
+
+def _with_shape(text: str, shape: str, points: np.ndarray | None, digits: int = 12) -> str:
+    """The scene text with the intestine's `shape` and `points` configs replaced (m, to 10^-digits)."""
+    value = "" if points is None else " ".join(f"{x:.{digits}f}" for x in np.asarray(points).ravel())
+    text, shapes = re.subn(r'<config key="shape" value="[^"]*"/>', f'<config key="shape" value="{shape}"/>', text)
+    text, pointss = re.subn(r'<config key="points" value="[^"]*"/>', f'<config key="points" value="{value}"/>', text)
+    if shapes != 1 or pointss != 1:
+        raise ValueError("the scene must hold exactly one intestine 'shape' and one 'points' config")
+    return text
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m viscera.settle", description=__doc__.split("\n")[0])
+    parser.add_argument("--scene", type=pathlib.Path, default=SCENE, help="scene to settle and rewrite")
+    parser.add_argument("--duration", type=float, default=6.0, help="settling time (simulated s)")
+    args = parser.parse_args(argv)
+    settled = settle(args.scene, args.duration)
+    args.scene.write_text(_with_shape(args.scene.read_text(), "control_points", settled, digits=6))
+    print(f"wrote {len(settled)} settled control points into {args.scene}")
+
+
+if __name__ == "__main__":
+    main()
