@@ -6,7 +6,10 @@ State layout of one ``viscera.intestine`` instance in ``data.plugin_state``
 divergence count ``[6n]``, then for every body the wrench the intestine
 exerted on it over the last step ``[6n+1, 6n+1+6B)`` (force N, torque N m about
 the body's centre of mass, world frame), then the friction state of every
-sphere (8 each: rigid partner, elongation m x3, self partner, elongation m x3).
+sphere (8 each: rigid partner, elongation m x3, self partner, elongation m x3),
+then for every grasper named in ``grasp_sites`` its hold (6 each: status 0 open,
+1 holding, 2 closed without a hold; held abscissa s in [0, 1]; held point in
+the site frame, m x3; slip count).
 """
 
 from __future__ import annotations
@@ -57,6 +60,23 @@ def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
     return out if status == 0 else None
 
 
+GRASP_STATUS = {0: "open", 1: "holding", 2: "closed"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Grasp:
+    """One grasper's hold on the axis."""
+
+    site: str          # the site where the jaws hold
+    status: str        # "open", "holding", or "closed" (closed without a hold: missed or slipped)
+    abscissa: float    # m along the rest axis from its first point, of the held point (when holding)
+    slips: int         # holds lost to the slip force limit since the last reset
+
+    @property
+    def holding(self) -> bool:
+        return self.status == "holding"
+
+
 @dataclasses.dataclass(frozen=True)
 class Intestine:
     """One viscera.intestine instance of a compiled model: config and state accessors."""
@@ -94,6 +114,21 @@ class Intestine:
             raise IndexError(f"body {body!r} is not a body of the model (0 to {self.model.nbody - 1})")
         start = 6 * self.control_count + 1 + 6 * int(body_id)
         return self._state(data)[start:start + 6].copy()
+
+    @property
+    def graspers(self) -> tuple[str, ...]:
+        """Names of the sites where grasping jaws hold the axis (config key grasp_sites)."""
+        return tuple(self.config.get("grasp_sites", "").split())
+
+    def grasps(self, data: mujoco.MjData) -> list[Grasp]:
+        """The hold of every grasper (in grasp_sites order)."""
+        start = 6 * self.control_count + 1 + 6 * self.model.nbody + 8 * self.sphere_count
+        state = self._state(data)
+        out = []
+        for i, site in enumerate(self.graspers):
+            status, s, _, _, _, slips = state[start + 6 * i:start + 6 * i + 6]
+            out.append(Grasp(site, GRASP_STATUS.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
+        return out
 
     def divergence_count(self, data: mujoco.MjData) -> int:
         """Number of steps whose state diverged and was restored since the last reset."""
@@ -211,15 +246,6 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
     normals = np.empty((nv.value, 3))
     triangles = np.empty((nt.value, 3), dtype=np.int32)
     status = lib.viscera_skin_build(address, index, rings, points, q.ctypes.data_as(ctypes.c_void_p),
-                                    vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
-                                    triangles.ctypes.data_as(ctypes.c_void_p))
-    if status != 0:
-        raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
-    return vertices, normals, triangles
-    vertices = np.empty((nv.value, 3))
-    normals = np.empty((nv.value, 3))
-    triangles = np.empty((nt.value, 3), dtype=np.int32)
-    status = lib.viscera_skin_build(address, index, q.ctypes.data_as(ctypes.c_void_p),
                                     vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
                                     triangles.ctypes.data_as(ctypes.c_void_p))
     if status != 0:

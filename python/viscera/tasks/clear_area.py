@@ -4,7 +4,7 @@ Suite-style task (a Physics with named accessors, a Task, a load() front door)
 on assets/scenes/abdomen.xml. Actions: the tools' position actuators (their
 control ranges). Observations, in order: tool joint positions, the force the
 intestine exerts on each tool (the tool force sensors), intestine axis points
-(32 along the axis, m), and the target's coverage grid. Reward: the fraction
+(100 along the axis, m), and the target's coverage grid. Reward: the fraction
 of the target area uncovered, in [0, 1]: the target rectangle is sampled on a
 10 x 10 grid of points, and a point is covered when the intestine's tube lies
 over it (an axis point within one radius of it in the wall's plane). The
@@ -25,7 +25,7 @@ import viscera
 
 SCENE = pathlib.Path(__file__).resolve().parents[3] / "assets" / "scenes" / "abdomen.xml"
 GRID = 10            # target sampling points per side
-AXIS_SAMPLES = 32    # intestine axis points observed
+AXIS_SAMPLES = 100   # intestine axis points observed (3 cm apart on 3 m)
 TOOLS = ("grasper", "retractor")
 
 
@@ -39,7 +39,11 @@ class Physics(dm_mujoco.Physics):
     """The abdomen with named accessors for the task."""
 
     def intestine(self) -> viscera.Intestine:
-        return viscera.intestine(self.model.ptr)
+        model = self.model.ptr
+        cached = getattr(self, "_intestine", None)
+        if cached is None or cached.model is not model:  # physics.reload_from_* replaces the model
+            cached = self._intestine = viscera.intestine(model)
+        return cached
 
     def axis_points(self, count: int = AXIS_SAMPLES) -> np.ndarray:
         return self.intestine().axis_points(self.data.ptr, count)
@@ -54,11 +58,19 @@ class Physics(dm_mujoco.Physics):
 
     def coverage(self) -> np.ndarray:
         """1 where the tube lies over a target point (within one radius in the wall's plane)."""
-        gut = self.intestine()
-        axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)
-        points = self.target_points()
-        planar = np.linalg.norm(points[:, None, :2] - axis[None, :, :2], axis=-1)
-        return (planar.min(axis=1) <= gut.radius).astype(float)
+        key = (self.data.time, self.intestine().positions(self.data.ptr).tobytes())
+        if getattr(self, "_coverage_key", None) != key:  # reward, termination and observation share it
+            gut = self.intestine()
+            axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)[:, :2]
+            points = self.target_points()[:, :2]
+            low, high = points.min(axis=0) - gut.radius, points.max(axis=0) + gut.radius
+            near = axis[np.all((axis >= low) & (axis <= high), axis=1)]  # the rest cannot cover
+            covered = np.zeros(len(points))
+            if len(near):
+                squared = ((points[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
+                covered = (squared.min(axis=1) <= gut.radius ** 2).astype(float)
+            self._coverage_key, self._coverage = key, covered
+        return self._coverage.copy()
 
     def uncovered_fraction(self) -> float:
         return float(1.0 - self.coverage().mean())
@@ -74,8 +86,9 @@ class Physics(dm_mujoco.Physics):
 class ClearArea(base.Task):
     """Uncover the target area; reward is the uncovered fraction."""
 
-    def __init__(self, random=None):
+    def __init__(self, random=None, end_on_success: bool = True):
         super().__init__(random=random)
+        self.end_on_success = end_on_success
 
     def initialize_episode(self, physics: Physics) -> None:
         # the intestine starts from the scene's shape (reset writes it); tools start withdrawn
@@ -93,11 +106,13 @@ class ClearArea(base.Task):
         return physics.uncovered_fraction()
 
     def get_termination(self, physics: Physics):
-        return 0.0 if physics.uncovered_fraction() >= 1.0 else None
+        return 0.0 if self.end_on_success and physics.uncovered_fraction() >= 1.0 else None
 
 
-def load(seed: int | None = None, time_limit: float = 20.0, control_timestep: float = 0.02) -> control.Environment:
-    """The clear_area environment (time limit and control period in s)."""
+def load(seed: int | None = None, time_limit: float = 20.0, control_timestep: float = 0.02,
+         end_on_success: bool = True) -> control.Environment:
+    """The clear_area environment (time limit and control period in s; with end_on_success
+    False an uncovered target does not end the episode, e.g. to watch a gesture finish)."""
     physics = Physics.from_xml_path(str(_scene_path()))
-    task = ClearArea(random=np.random.RandomState(seed))
+    task = ClearArea(random=np.random.RandomState(seed), end_on_success=end_on_success)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)

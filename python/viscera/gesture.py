@@ -1,0 +1,229 @@
+"""The clearing gesture: pick the loops lying over the target area and lay them aside.
+
+    python -m viscera.gesture [--seed 0] [--duration 20] [--png-before B.png --png-after A.png]
+
+A closed-loop scripted policy for the clear_area task (dm_control convention:
+``action = policy(time_step)``), built from the observations alone: it reads
+the intestine's axis points and the tool joints, and plays smooth,
+velocity-limited tool trajectories (viscera.trajectory) between phases. Each
+cycle: choose the highest axis point over the target (the top loop first, so it
+does not drag the loops below), bring the open grasper above it, descend, close
+the jaws (the plugin takes hold of the nearest axis point), lift, carry it
+beyond the target's edge, lower, release. When no loop lies over the target, or
+the time is nearly up, the grasper withdraws to its trocar. The retractor
+meanwhile presses on the loops just outside the target's edge where the picked
+loops are laid, so that they do not slide back.
+
+The last printed line is ``uncovered: F``, F the final uncovered fraction.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import numpy as np
+
+from viscera.trajectory import COORDINATES, ToolTrajectory
+
+TOOLS = ("grasper", "retractor")
+JAW_OPEN_DEG = 35.0
+JAW_CLOSED_DEG = 0.0
+LIMITS = {"pitch": 60.0, "yaw": 60.0, "depth": 0.15, "roll": 90.0, "jaw": 200.0}  # per second
+
+
+@dataclasses.dataclass
+class Phase:
+    name: str
+    duration: float                       # s, at least
+    grasper: ToolTrajectory
+    retractor: ToolTrajectory
+
+
+class ClearingGesture:
+    """Policy for viscera.tasks.load("clear_area"): call with a dm_env TimeStep, get an action."""
+
+    cycle_duration = 3.9  # s, one pick and lay
+
+    def __init__(self, env, withdraw_at: float = 18.0, carry_beyond: float = 0.06, carry_height: float = 0.11):
+        physics = env.physics
+        model = physics.model
+        self.control_timestep = env.control_timestep()
+        self.withdraw_at = withdraw_at  # s: then the tools leave, whatever remains
+        self.carry_beyond = carry_beyond  # m beyond the target's edge where a picked loop is laid
+        self.carry_height = carry_height  # m above the posterior wall while carrying
+        self.trocar = {t: physics.named.model.body_pos[f"{t}_trocar"].copy() for t in TOOLS}
+        # distance from the trocar to the working point at zero depth (m)
+        self.tip_offset = {"grasper": -float(physics.named.model.site_pos["grasper_tip"][2]),
+                           "retractor": -float(physics.named.model.geom_pos["retractor_paddle"][2])}
+        self.centre = physics.named.model.site_pos["target_area"][:2].copy()
+        self.half = physics.named.model.site_size["target_area"][:2].copy()
+        self.cells = physics.target_points()[:, :2]  # the reward's sampling points, coverage order
+        self.radius = physics.intestine().radius
+        self.gravity = model.opt.gravity.copy()
+        self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in physics.named.data.ctrl.axes.row.names
+                              else -1 for c in COORDINATES] for t in TOOLS}
+        self.joint_names = [f"{t}_{c}" for t in TOOLS for c in COORDINATES if f"{t}_{c}" in
+                            physics.named.data.qpos.axes.row.names]
+        self.action_size = model.nu
+        self._reset()
+
+    # -- tool kinematics: the shaft pivots at the trocar (pitch about x, then yaw about y)
+    def coordinates(self, tool: str, point: np.ndarray, jaw: float = 0.0, roll: float = 0.0) -> dict:
+        """Tool coordinates (deg, m) that put the tool's working point at `point` (m, world)."""
+        d = np.asarray(point, dtype=float) - self.trocar[tool]
+        distance = float(np.linalg.norm(d))
+        u = d / distance
+        yaw = np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
+        pitch = np.degrees(np.arctan2(u[1], -u[2]))
+        depth = float(np.clip(distance - self.tip_offset[tool], 0.0, 0.22))
+        return {"pitch": float(pitch), "yaw": float(yaw), "depth": depth, "roll": roll, "jaw": jaw}
+
+    def _reset(self) -> None:
+        self.phases: list[Phase] = []
+        self.phase_time = 0.0
+        self.time = 0.0
+        self.command = {t: {c: 0.0 for c in COORDINATES} for t in TOOLS}
+        self.cycles = 0
+        self.done = False
+
+    def _move(self, tool: str, goal: dict, duration: float) -> ToolTrajectory:
+        start = dict(self.command[tool])
+        self.command[tool] = dict(goal)
+        return ToolTrajectory([dict(start, time=0.0), dict(goal, time=duration)], LIMITS)
+
+    def _hold(self, tool: str) -> ToolTrajectory:
+        return ToolTrajectory([dict(self.command[tool], time=0.0)], LIMITS)
+
+    def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
+        """Queue the phases of the next cycle from the axis points (m, (k, 3)) and the target's
+        coverage grid."""
+        over = self._over_covered_cells(axis, coverage)
+        if self.time + self.cycle_duration > self.withdraw_at or not over.any():
+            self._plan_withdraw()
+            return
+        index = np.flatnonzero(over)[np.argmax(axis[over, 2])]  # the top loop first
+        pick = axis[index]
+        # out through the target's nearest edge (the shortest way out), never uphill
+        offset = pick[:2] - self.centre
+        margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
+        normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+        uphill = normals @ np.asarray(self.gravity[:2]) < -1e-9
+        side = normals[np.argmin(np.where(uphill, np.inf, margins))]
+        drop_xy = pick[:2] + side * (self._exit_distance(pick[:2], side) + self.carry_beyond)
+        drop_xy = np.clip(drop_xy, [-0.12, -0.10], [0.12, 0.10])
+        above = np.array([pick[0], pick[1], pick[2] + 0.04])
+        grip = np.array([pick[0], pick[1], pick[2] - 0.3 * self.radius])
+        lifted = np.array([pick[0], pick[1], self.carry_height])
+        carried = np.array([drop_xy[0], drop_xy[1], self.carry_height])
+        lowered = np.array([drop_xy[0], drop_xy[1], 0.045])
+        g = "grasper"
+        hold_r = self._hold("retractor")
+        self.phases += [
+            Phase("approach", 0.9, self._move(g, self.coordinates(g, above, JAW_OPEN_DEG), 0.8), hold_r),
+            Phase("descend", 0.5, self._move(g, self.coordinates(g, grip, JAW_OPEN_DEG), 0.4), hold_r),
+            Phase("close", 0.3, self._move(g, self.coordinates(g, grip, JAW_CLOSED_DEG), 0.25), hold_r),
+            Phase("lift", 0.6, self._move(g, self.coordinates(g, lifted, JAW_CLOSED_DEG), 0.5), hold_r),
+            Phase("carry", 0.9, self._move(g, self.coordinates(g, carried, JAW_CLOSED_DEG), 0.8), hold_r),
+            Phase("lower", 0.4, self._move(g, self.coordinates(g, lowered, JAW_CLOSED_DEG), 0.3), hold_r),
+            Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r),
+        ]
+        self.cycles += 1
+
+    def _exit_distance(self, point: np.ndarray, direction: np.ndarray) -> float:
+        """Distance (m) from `point` along `direction` (unit) to the target rectangle's edge."""
+        bounds = [(self.centre[a] + np.sign(direction[a]) * self.half[a] - point[a]) / direction[a]
+                  for a in range(2) if abs(direction[a]) > 1e-9]
+        return max(0.0, min(bounds))
+
+    def _plan_withdraw(self) -> None:
+        g = "grasper"
+        up = dict(self.command[g], depth=0.0, jaw=JAW_CLOSED_DEG)
+        self.phases.append(Phase("withdraw", 1.5, self._move(g, up, 1.2), self._move("retractor", dict(
+            self.command["retractor"], depth=0.0), 1.2)))
+        self.done = True
+
+    def _over_covered_cells(self, points: np.ndarray, coverage: np.ndarray) -> np.ndarray:
+        """Axis points whose tube lies over a covered cell of the target grid (as the reward sees it)."""
+        cells = self.cells[np.asarray(coverage) > 0.5]
+        if not len(cells):
+            return np.zeros(len(points), dtype=bool)
+        squared = ((points[:, None, :2] - cells[None, :, :]) ** 2).sum(axis=-1)
+        return squared.min(axis=1) <= (1.5 * self.radius) ** 2
+
+    def __call__(self, time_step) -> np.ndarray:
+        if time_step.first():
+            self._reset()
+        axis = np.asarray(time_step.observation["intestine_axis"]).reshape(-1, 3)
+        while not self.phases or self.phase_time >= self.phases[0].duration:
+            if self.phases:
+                self.phase_time -= self.phases.pop(0).duration
+            if not self.phases:
+                if self.done:  # rest withdrawn
+                    self.phases.append(Phase("rest", np.inf, self._hold("grasper"), self._hold("retractor")))
+                else:
+                    self._plan(axis, time_step.observation["target_coverage"])
+        phase = self.phases[0]
+        action = np.zeros(self.action_size)
+        for tool, trajectory in (("grasper", phase.grasper), ("retractor", phase.retractor)):
+            values = trajectory(self.phase_time)
+            for actuator, value, name in zip(self.actuators[tool], values, COORDINATES):
+                if actuator >= 0:
+                    action[actuator] = value if name == "depth" else np.radians(value)
+        self.phase_time += self.control_timestep
+        self.time += self.control_timestep
+        return action
+
+    @property
+    def phase(self) -> str:
+        return self.phases[0].name if self.phases else "-"
+
+
+def run(seed: int = 0, duration: float = 20.0, quiet: bool = False, png_before: str | None = None,
+        png_after: str | None = None) -> float:
+    """Run the gesture on a clear_area episode; returns the final uncovered fraction."""
+    from tqdm import tqdm
+
+    import viscera.tasks
+
+    # the whole gesture plays out, withdrawal included: success does not cut it short
+    env = viscera.tasks.load("clear_area", seed=seed, time_limit=duration, end_on_success=False)
+    policy = ClearingGesture(env)
+    time_step = env.reset()
+    if png_before:
+        _render(env.physics, png_before)
+    steps = int(round(duration / env.control_timestep()))
+    reward = 0.0
+    with tqdm(total=steps, desc="clearing", unit="step", disable=quiet) as bar:
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+            reward = float(time_step.reward)
+            bar.set_postfix(phase=policy.phase, uncovered=f"{reward:.2f}")
+            bar.update(1)
+    if png_after:
+        _render(env.physics, png_after)
+    gut = env.physics.intestine()
+    print(f"cycles {policy.cycles}, simulated {env.physics.data.time:.2f} s, divergences "
+          f"{gut.divergence_count(env.physics.data.ptr)}")
+    print(f"uncovered: {reward:.3f}")
+    return reward
+
+
+def _render(physics, path: str) -> None:
+    import matplotlib.image
+    matplotlib.image.imsave(path, physics.render(height=480, width=640, camera_id="top"))
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m viscera.gesture", description=__doc__.split("\n")[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--duration", type=float, default=20.0, help="episode length (simulated s)")
+    parser.add_argument("--png-before", help="picture of the cavity at the start (top camera)")
+    parser.add_argument("--png-after", help="picture of the cavity at the end")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    run(args.seed, args.duration, args.quiet, args.png_before, args.png_after)
+
+
+if __name__ == "__main__":
+    main()
