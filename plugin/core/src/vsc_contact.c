@@ -266,6 +266,18 @@ static void collect_self(void* context, int earlier, int item) {
   vsc_contact_lists* l = b->rod->lists;
   int lo = earlier < item ? earlier : item, hi = earlier < item ? item : earlier;
   if (hi - lo < b->rod->self_gap) return;
+  // keep only segments within 2r + m of each other (exact distance): while no
+  // sphere moves m / 2 the distance shrinks by less than m, so the others cannot
+  // touch before the lists are rebuilt; overlapping grid boxes alone admit
+  // several times more pairs, which every force evaluation would then test
+  const double* x = b->rod->sphere_xyz;
+  double s, t, d2 = 0.0, limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
+  closest_segments(x + 3 * lo, x + 3 * lo + 3, x + 3 * hi, x + 3 * hi + 3, &s, &t);
+  for (int c = 0; c < 3; ++c) {
+    double d = (1.0 - s) * x[3 * lo + c] + s * x[3 * lo + 3 + c] - (1.0 - t) * x[3 * hi + c] - t * x[3 * hi + 3 + c];
+    d2 += d * d;
+  }
+  if (d2 > limit * limit) return;
   if (l->self_count >= l->self_capacity) {
     b->overflow = 1;
     return;
