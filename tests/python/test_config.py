@@ -42,6 +42,8 @@ BAD = [
     ({"shape": "polyline", "points": "0 0 0"}, ["points", "2 points"]),
     ({"shape": "polyline", "points": "0 0 0 1 0"}, ["points"]),
     ({"shape": "polyline", "points": "0 0 0 1 0 0"}, ["polyline", "points"]),  # 1 m < 4 m
+    ({"shape": "control_points"}, ["points", "control_points"]),
+    ({"shape": "control_points", "control_points": "4", "points": "0 0 0 1 0 0 2 0 0"}, ["points", "3 points", "4"]),
     ({"shape": "serpentine"}, ["box"]),
     ({"shape": "serpentine", "box": "0 0 0 0.3 0.1 0.05"}, ["box", "0 0 0 0.3 0.1 0.05", "cannot hold"]),
     ({"shape": "serpentine", "box": "1 0 0 0 1 1"}, ["box", "min"]),

@@ -1,0 +1,55 @@
+"""The abdominal cavity scene: its settled intestine, attached ends, and the settling procedure."""
+
+import mujoco
+import numpy as np
+import pytest
+
+import viscera
+from viscera import settle
+
+from test_package import ROOT
+
+ABDOMEN = ROOT / "assets" / "scenes" / "abdomen.xml"
+
+
+@pytest.fixture(scope="module")
+def cavity():
+    model = mujoco.MjModel.from_xml_path(str(ABDOMEN))
+    return model, viscera.intestine(model)
+
+
+def test_the_settling_path_starts_and_ends_on_the_posterior_wall():
+    path = settle.initial_path(3.0, 0.0125)
+    assert np.linalg.norm(np.diff(path, axis=0), axis=1).sum() == pytest.approx(3.0, abs=1e-9)
+    first, last = path[0], path[-1]
+    assert first[2] == pytest.approx(0.0125) and last[2] == pytest.approx(0.0125)  # resting on the wall
+    assert first[0] < -0.1 and first[1] > 0.09    # duodenojejunal flexure: left, cranial
+    assert last[0] > 0.1 and last[1] < -0.09      # ileocaecal junction: right, caudal
+    inner = np.array(settle.HALF_WIDTH)
+    assert (np.abs(path[:, :2]) <= inner - 0.0125).all()  # inside the cavity
+
+
+def test_the_shipped_intestine_is_at_rest_with_its_ends_on_the_wall(cavity):
+    """Each episode starts from the settled state: stepping it with the tools still moves no
+    control point by more than 2 mm in 1 s, and the pinned ends stay on the posterior wall."""
+    model, gut = cavity
+    data = mujoco.MjData(model)
+    start = gut.positions(data).copy()
+    assert start[[0, -1], 2] == pytest.approx([gut.radius, gut.radius], abs=0.003)
+    for _ in range(500):
+        mujoco.mj_step(model, data)
+    moved = np.linalg.norm(gut.positions(data) - start, axis=1)
+    assert moved.max() < 0.002
+    assert moved[0] == 0.0 and moved[-1] == 0.0  # pinned
+    assert gut.divergence_count(data) == 0
+    assert gut.config["shape"] == "control_points" and len(gut.config["points"].split()) == 3 * gut.control_count
+
+
+def test_rewriting_the_shape_keeps_the_rest_of_the_scene():
+    text = ABDOMEN.read_text()
+    rewritten = settle._with_shape(text, "line", None)
+    assert '<config key="shape" value="line"/>' in rewritten
+    assert '<config key="points" value=""/>' in rewritten
+    assert rewritten.count("<geom") == text.count("<geom")
+    with pytest.raises(ValueError, match="exactly one"):
+        settle._with_shape("<mujoco/>", "line", None)
