@@ -13,7 +13,8 @@ typedef struct pass {
   const vsc_world* world;
   double* Q;
   int contacts;
-  int geom;  // index of the geom being queried
+  int geom;                // index of the geom being queried
+  const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's
 } pass;
 
 void vsc_stick_clear(double* stick, int count) {
@@ -72,6 +73,10 @@ static void record_touch(double* touch, int partner, double normal, double mu, c
 
 // Closest points P = p0 + s (p1 - p0), Q = q0 + t (q1 - q0) of two segments
 // (Ericson, Real-Time Collision Detection, 5.1.9).
+// x clamped to [0, 1], NaN to 0 (as fmin(fmax(x, 0), 1), which compiles to
+// library calls without -ffast-math; this runs for every self-contact pair)
+static inline double clamp01(double x) { return x > 0.0 ? (x < 1.0 ? x : 1.0) : 0.0; }
+
 static void closest_segments(const double* p0, const double* p1, const double* q0, const double* q1, double* s_out,
                              double* t_out) {
   double d1[3], d2[3], r[3];
@@ -87,21 +92,21 @@ static void closest_segments(const double* p0, const double* p1, const double* q
   if (aa <= tiny && e <= tiny) {
     s = t = 0.0;
   } else if (aa <= tiny) {
-    t = fmin(fmax(f / e, 0.0), 1.0);
+    t = clamp01(f / e);
   } else {
     double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
     if (e <= tiny) {
-      s = fmin(fmax(-c / aa, 0.0), 1.0);
+      s = clamp01(-c / aa);
     } else {
       double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b;
-      s = denominator > 0.0 ? fmin(fmax((b * f - c * e) / denominator, 0.0), 1.0) : 0.0;
+      s = denominator > 0.0 ? clamp01((b * f - c * e) / denominator) : 0.0;
       t = (b * s + f) / e;
       if (t < 0.0) {
         t = 0.0;
-        s = fmin(fmax(-c / aa, 0.0), 1.0);
+        s = clamp01(-c / aa);
       } else if (t > 1.0) {
         t = 1.0;
-        s = fmin(fmax((b - c) / aa, 0.0), 1.0);
+        s = clamp01((b - c) / aa);
       }
     }
   }
@@ -117,16 +122,10 @@ static void self_pair(void* context, int earlier, int item) {
   if (b - a < rod->self_gap) return;  // neighbours along the axis
   const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
   // cheap exact rejection: segments within 2r of each other have midpoints within
-  // 2r + half of each length (most candidates of a list are not touching)
-  double ma[3], mb[3], la = 0.0, lb = 0.0, gap2 = 0.0;
-  for (int c = 0; c < 3; ++c) {
-    ma[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
-    mb[c] = 0.5 * (x[3 * b + c] + x[3 * b + 3 + c]);
-    la += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
-    lb += (x[3 * b + 3 + c] - x[3 * b + c]) * (x[3 * b + 3 + c] - x[3 * b + c]);
-    gap2 += (ma[c] - mb[c]) * (ma[c] - mb[c]);
-  }
-  double reach = 2.0 * rod->def.radius + 0.5 * (sqrt(la) + sqrt(lb));
+  // 2r + half of each length (about half the candidates of a list are not touching)
+  const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
+  double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
+  double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
   if (gap2 >= reach * reach) return;
   double s, t;
   closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
@@ -213,11 +212,14 @@ struct vsc_contact_lists {
   int* self_pairs;            // candidate sphere pairs a < b, sorted (2 per pair)
   int geom_count, geom_capacity;
   int* geom_pairs;            // candidate (geom, sphere) pairs, sorted (2 per pair)
-  int built;                  // 0: must be built
-  int built_geoms;            // geom count at build
+  int self_built;             // 0: the self pairs must be built
+  int geoms_built;            // 0: the geom pairs must be built
+  int built_geoms;            // geom count at the geom pairs' build
   int built_geom_capacity;
-  double* sphere_xyz;         // sphere centres at build (3 per sphere) (m)
+  double* sphere_xyz;         // sphere centres at the self pairs' build (3 per sphere) (m)
+  double* geom_sphere_xyz;    // sphere centres at the geom pairs' build (3 per sphere) (m)
   double* geom_pose;          // geom position and rotation at build (12 per geom)
+  double* segment;            // per segment, each evaluation: midpoint (m, 3), half length (m)
   const vsc_geom* geoms;      // the host's geom array at build
 };
 
@@ -230,7 +232,9 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
-  if (!l->self_pairs || !l->geom_pairs || !l->sphere_xyz) {
+  l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
+  l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
+  if (!l->self_pairs || !l->geom_pairs || !l->sphere_xyz || !l->geom_sphere_xyz || !l->segment) {
     vsc_contact_lists_destroy(l);
     return NULL;
   }
@@ -242,6 +246,8 @@ void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   free(l->self_pairs);
   free(l->geom_pairs);
   free(l->sphere_xyz);
+  free(l->geom_sphere_xyz);
+  free(l->segment);
   free(l->geom_pose);
   free(l);
 }
@@ -308,34 +314,45 @@ static void collect_geom(void* context, int i) {
 
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
 
-// Grid passes with boxes inflated by half the margin: segments (self pairs),
-// then spheres (geoms). Returns 0 if a list overflowed (the caller then
-// evaluates without lists).
-static int build_lists(vsc_rod* rod, const vsc_world* world) {
+// The self pairs: a grid pass over segment boxes inflated by half the margin,
+// sized to the longest segment. Returns 0 if the list overflowed (the caller
+// then evaluates without lists).
+static int build_self(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
-  l->self_count = l->geom_count = 0;
-  // self pairs: a pass over segment boxes, sized to the longest segment
-  if (rod->def.self_collision) {
-    double longest = 0.0;
-    for (int k = 0; k + 1 < spheres; ++k)
-      for (int a = 0; a < 3; ++a)
-        longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
-    vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
-    for (int k = 0; k + 1 < spheres; ++k) {
-      const double* x0 = rod->sphere_xyz + 3 * k;
-      const double* x1 = x0 + 3;
-      double lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = fmin(x0[a], x1[a]) - inflated;
-        hi[a] = fmax(x0[a], x1[a]) + inflated;
-      }
-      vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+  l->self_count = 0;
+  double longest = 0.0;
+  for (int k = 0; k + 1 < spheres; ++k)
+    for (int a = 0; a < 3; ++a)
+      longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
+  vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+  for (int k = 0; k + 1 < spheres; ++k) {
+    const double* x0 = rod->sphere_xyz + 3 * k;
+    const double* x1 = x0 + 3;
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = fmin(x0[a], x1[a]) - inflated;
+      hi[a] = fmax(x0[a], x1[a]) + inflated;
     }
+    vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
   }
-  // spheres, for the geoms
+  qsort(l->self_pairs, (size_t)l->self_count, 2 * sizeof(int), compare_pairs);
+  memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  l->self_built = !b.overflow;
+  return l->self_built;
+}
+
+// The (geom, sphere) pairs: a grid pass over sphere boxes, then a query per
+// geom. Built apart from the self pairs, so a tool moving through a resting
+// bowel costs only this. Returns 0 if the list overflowed.
+static int build_geoms(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int spheres = rod->def.collision_sphere_count;
+  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  build b = {rod, world, -1, r + margin, 0};
+  l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
   for (int i = 0; i < spheres; ++i) {
@@ -364,8 +381,7 @@ static int build_lists(vsc_rod* rod, const vsc_world* world) {
       for (int i = 0; i < spheres; ++i) collect_geom(&b, i);
     qsort(l->geom_pairs + 2 * first, (size_t)(l->geom_count - first), 2 * sizeof(int), compare_pairs);
   }
-  qsort(l->self_pairs, (size_t)l->self_count, 2 * sizeof(int), compare_pairs);
-  memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
     double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 12 * (size_t)world->geom_count);
     if (!poses) return 0;
@@ -378,22 +394,35 @@ static int build_lists(vsc_rod* rod, const vsc_world* world) {
   }
   l->built_geoms = world->geom_count;
   l->geoms = world->geoms;
-  l->built = !b.overflow;
-  return l->built;
+  l->geoms_built = !b.overflow;
+  return l->geoms_built;
 }
 
-// The lists still hold every possible contact while no sphere and no geom
-// moved by half the margin since they were built.
-static int lists_valid(const vsc_rod* rod, const vsc_world* world) {
-  const vsc_contact_lists* l = rod->lists;
-  if (!l->built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
+// 1 while no sphere moved by half the margin from `snapshot` (3 per sphere).
+static int spheres_stayed(const vsc_rod* rod, const double* snapshot) {
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius, half2 = half * half;
   for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
     const double* x = rod->sphere_xyz + 3 * i;
-    const double* x0 = l->sphere_xyz + 3 * i;
+    const double* x0 = snapshot + 3 * i;
     double dx = x[0] - x0[0], dy = x[1] - x0[1], dz = x[2] - x0[2];
     if (!(dx * dx + dy * dy + dz * dz <= half2)) return 0;
   }
+  return 1;
+}
+
+// The self pairs still hold every possible self-contact while no sphere moved
+// by half the margin since they were built.
+static int self_valid(const vsc_rod* rod) {
+  return rod->lists->self_built && spheres_stayed(rod, rod->lists->sphere_xyz);
+}
+
+// The geom pairs still hold every possible contact while no sphere and no geom
+// moved by half the margin since they were built.
+static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
+  const vsc_contact_lists* l = rod->lists;
+  if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
+  if (!spheres_stayed(rod, l->geom_sphere_xyz)) return 0;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
     const double* pose = l->geom_pose + 12 * g;
@@ -419,9 +448,24 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     touch[RIGID + T_NORMAL_FORCE] = touch[SELF + T_NORMAL_FORCE] = 0.0;
   }
   vsc_contact_lists* l = rod->lists;
-  if (!lists_valid(rod, world) && !build_lists(rod, world)) {
+  p.segment = l->segment;
+  if (rod->def.self_collision) {
+    const double* x = rod->sphere_xyz;
+    for (int a = 0; a + 1 < spheres; ++a) {
+      double* out = l->segment + 4 * a;
+      double length2 = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
+        length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
+      }
+      out[3] = 0.5 * sqrt(length2);
+    }
+  }
+  int self_ok = !rod->def.self_collision || self_valid(rod) || build_self(rod, world);
+  int geoms_ok = geoms_valid(rod, world) || build_geoms(rod, world);
+  if (!self_ok || !geoms_ok) {
     // a list overflowed (an extreme pile): this evaluation tests everything directly
-    l->built = 0;
+    l->self_built = l->geoms_built = 0;
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
       for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(&p, a, b);
     for (int g = 0; g < world->geom_count; ++g) {
@@ -430,7 +474,8 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     }
     return p.contacts;
   }
-  for (int k = 0; k < l->self_count; ++k) self_pair(&p, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+  for (int k = 0; k < l->self_count && rod->def.self_collision; ++k)
+    self_pair(&p, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
   for (int k = 0; k < l->geom_count; ++k) {
     p.geom = l->geom_pairs[2 * k];
     sphere_geom(&p, l->geom_pairs[2 * k + 1]);
