@@ -1,12 +1,14 @@
 // Contacts of the rod's collision spheres with rigid geoms and with each other
 // (France et al. 2002, 3.3), found through the sphere grid (vsc_grid.h).
 //
-// Broad phase (Verlet lists): one grid pass finds the candidate pairs within a
-// margin (spheres closer than 2r + m, sphere-geom pairs within r + m by exact
-// distance, m = VSC_CONTACT_MARGIN r); every force evaluation then runs only
-// the narrow phase over them, until a sphere or a geom has moved by m / 2 since
-// the lists were built (then no contact can have been missed) and they are
-// rebuilt. The lists are sorted, so forces do not depend on when they were built.
+// Broad phase (Verlet lists): grid passes find the candidate pairs within a
+// margin (segments closer than 2r + m, sphere-geom pairs within r + m, both by
+// exact distance, m = VSC_CONTACT_MARGIN r); every force evaluation then runs
+// only the narrow phase over them. The self pairs are rebuilt once a sphere has
+// moved by m / 2 since they were built, the geom pairs once a sphere or a geom
+// has (then no contact can have been missed), apart: a moving tool does not
+// rebuild the self pairs. The lists are sorted, so forces do not depend on when
+// they were built.
 //
 // Spheres of radius def.radius sit uniformly in abscissa. A contact of depth
 // d > 0 and normal approach speed v_n pushes with f_n = max(0, k d - c v_n)
