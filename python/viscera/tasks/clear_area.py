@@ -3,7 +3,8 @@
 Suite-style task (a Physics with named accessors, a Task, a load() front door)
 on assets/scenes/abdomen.xml. Actions: the tools' position actuators (their
 control ranges). Observations, in order: tool joint positions, the force the
-intestine exerts on each tool (the tool force sensors), intestine axis points
+intestine exerts on each tool (the tool force sensors), whether the grasper
+holds the intestine, intestine axis points
 (100 along the axis, m), and the target's coverage grid. Reward: the fraction
 of the target area uncovered, in [0, 1]: the target rectangle is sampled on a
 10 x 10 grid of points, and a point is covered when the intestine's tube lies
@@ -78,6 +79,10 @@ class Physics(dm_mujoco.Physics):
     def tool_forces(self) -> np.ndarray:
         return np.concatenate([self.named.data.sensordata[f"{tool}_force"] for tool in TOOLS])
 
+    def holding(self) -> np.ndarray:
+        """1 where a grasper holds the intestine (one entry per grasp site)."""
+        return np.array([float(g.holding) for g in self.intestine().grasps(self.data.ptr)])
+
     def tool_joints(self) -> np.ndarray:
         names = [j for j in self.named.data.qpos.axes.row.names if j.split("_")[0] in TOOLS]
         return self.named.data.qpos[names].copy()
@@ -98,6 +103,7 @@ class ClearArea(base.Task):
         observation = collections.OrderedDict()
         observation["tool_joints"] = physics.tool_joints()
         observation["tool_forces"] = physics.tool_forces()
+        observation["grasper_holding"] = physics.holding()
         observation["intestine_axis"] = physics.axis_points().ravel()
         observation["target_coverage"] = physics.coverage()
         return observation
