@@ -17,7 +17,7 @@ const char* const vsc_plugin_attributes[] = {
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
     "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
     "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
-    "grasp_slip_force"};
+    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -289,6 +289,25 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       return fail(&r, "attribute 'density' = '%g' with 'radius' = '%g' and 'length' = '%g' gives a non-finite mass",
                   density, d->radius, d->length);
   }
+  // material: a Young's modulus gives the axial EA and bending EI of a tube of
+  // the contact radius (a wall of the given thickness, else a solid section);
+  // then the stretch springs carry EA, the curvature term EI, and the paper's
+  // bend springs and global length term default to off
+  double young = 0.0, wall = 0.0;
+  int young_given = 0, wall_given = 0;
+  if (read_number(&r, "young_modulus", 0.0, &young, &young_given) ||
+      read_number(&r, "wall_thickness", 0.0, &wall, &wall_given))
+    return -1;
+  if (young_given && !(young > 0.0)) return fail(&r, "attribute 'young_modulus' = '%s' must be positive (Pa)", raw(&r, "young_modulus"));
+  if (wall_given && !(wall > 0.0 && wall <= d->radius))
+    return fail(&r, "attribute 'wall_thickness' = '%s' must be positive and at most 'radius' = %g (m)", raw(&r, "wall_thickness"), d->radius);
+  if (wall_given && !young_given) return fail(&r, "attribute 'wall_thickness' needs 'young_modulus'");
+  double inner = wall_given ? d->radius - wall : 0.0, r2 = d->radius * d->radius, i2 = inner * inner;
+  double area = VSC_PI * (r2 - i2), second_moment = 0.25 * VSC_PI * (r2 * r2 - i2 * i2);
+  double stretch_default = young_given ? young * area / d->length : d->stretch_stiffness * 4.0 / d->length;
+  double bend_default = young_given ? 0.0 : d->bend_stiffness * 4.0 / d->length;
+  double global_default = young_given ? 0.0 : d->global_stretch_stiffness;
+  double rigidity_default = young_given ? young * second_moment : 0.0;
   failed =
       read_positive(&r, "radius_max", d->radius, &c->radius_max, "m") ||
       read_positive(&r, "radius_min", c->radius_max, &c->radius_min, "m") ||
@@ -296,9 +315,10 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       // length constant); the global term is a length regulator acting on the
       // end points, so scaling it up for short intestines would only make them
       // unstable: its default does not scale
-      read_nonnegative(&r, "stretch_stiffness", d->stretch_stiffness * 4.0 / d->length, &d->stretch_stiffness, "N/m") ||
-      read_nonnegative(&r, "bend_stiffness", d->bend_stiffness * 4.0 / d->length, &d->bend_stiffness, "N/m") ||
-      read_nonnegative(&r, "global_stretch_stiffness", d->global_stretch_stiffness, &d->global_stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "stretch_stiffness", stretch_default, &d->stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "bend_stiffness", bend_default, &d->bend_stiffness, "N/m") ||
+      read_nonnegative(&r, "global_stretch_stiffness", global_default, &d->global_stretch_stiffness, "N/m") ||
+      read_nonnegative(&r, "bending_rigidity", rigidity_default, &d->bending_rigidity, "N m^2") ||
       read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
       read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
       read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
@@ -334,6 +354,8 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)
     return fail(&r, "attributes 'stretch_stiffness', 'bend_stiffness' and 'global_stretch_stiffness' are all 0: "
                 "nothing holds the intestine together");
+  if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
+    return fail(&r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(&r, "young_modulus"));
   const char* integrator = raw(&r, "integrator");
   if (integrator && strcmp(integrator, "rk4") != 0)
     return fail(&r, "attribute 'integrator' = '%s' must be rk4", integrator);

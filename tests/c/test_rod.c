@@ -67,10 +67,11 @@ static void mass_matrix_exact_band7_spd_total(void) {
 }
 
 // -dE/dq from vsc_rod_forces against central differences, one term at a time
-// (the fourth: mesentery tethers alone, some slack, some pulling).
+// (the fourth: mesentery tethers alone, some slack, some pulling; the fifth:
+// curvature bending alone).
 static void gradient_matches_central_differences(void) {
-  double terms[4][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}};
-  for (int t = 0; t < 4; ++t) {
+  double terms[5][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}, {0, 0, 0}};
+  for (int t = 0; t < 5; ++t) {
     int n = 12;
     vsc_rod_def def = vsc_default_rod_def();
     def.control_count = n;
@@ -85,6 +86,10 @@ static void gradient_matches_central_differences(void) {
       def.mesentery_length = 0.9;
       double root[6] = {0.0, 0.0, -0.5, 3.0, 0.0, -0.5};
       for (int i = 0; i < 6; ++i) def.mesentery_root[i] = root[i];
+    }
+    if (t == 4) {
+      def.stretch_stiffness = 1e-9;
+      def.bending_rigidity = 0.02;  // N m^2
     }
     vsc_rod* rod = NULL;
     ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);

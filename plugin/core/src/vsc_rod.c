@@ -49,7 +49,8 @@ static vsc_status validate(const vsc_rod_def* d) {
       !finite_pos(d->contact_stiffness))
     return VSC_ERROR_INVALID_ARGUMENT;
   if (!finite_nonneg(d->stretch_stiffness) || !finite_nonneg(d->bend_stiffness) ||
-      !finite_nonneg(d->global_stretch_stiffness) || !finite_nonneg(d->damping) ||
+      !finite_nonneg(d->global_stretch_stiffness) || !finite_nonneg(d->bending_rigidity) ||
+      !finite_nonneg(d->damping) ||
       !finite_nonneg(d->contact_damping) || !finite_nonneg(d->self_friction))
     return VSC_ERROR_INVALID_ARGUMENT;
   if (d->pinned_count < 0 || (d->pinned_count > 0 && !d->pinned)) return VSC_ERROR_INVALID_ARGUMENT;
@@ -292,6 +293,42 @@ static void add_spring_forces(vsc_rod* rod, int gap) {
 }
 
 // Elastic sample forces -dE/dp into force_* (samples must be current).
+// Curvature bending on the sample polyline (see vsc_rod.h): adds its forces
+// F = -dE/dp to force_* if `forces`; returns its energy (J).
+static double curvature_bending(vsc_rod* rod, int forces) {
+  int N = rod->sample_count;
+  double k = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
+  if (!(k > 0.0) || N < 3) return 0.0;
+  const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  for (int a = 1; a + 1 < N; ++a) {
+    double u[3] = {x[a] - x[a - 1], y[a] - y[a - 1], z[a] - z[a - 1]};
+    double w[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
+    double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    double inverse = 1.0 / sqrt(uu * ww);
+    if (!isfinite(inverse)) continue;  // coincident samples: no angle
+    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse;
+    energy += k * (1.0 - c);
+    if (!forces) continue;
+    double du[3], dw[3];  // dc/du and dc/dw
+    for (int i = 0; i < 3; ++i) {
+      du[i] = w[i] * inverse - c * u[i] / uu;
+      dw[i] = u[i] * inverse - c * w[i] / ww;
+    }
+    // F = k dc/dp: p_{a-1} enters u with -1, p_a enters u with +1 and w with -1
+    fx[a - 1] -= k * du[0];
+    fy[a - 1] -= k * du[1];
+    fz[a - 1] -= k * du[2];
+    fx[a] += k * (du[0] - dw[0]);
+    fy[a] += k * (du[1] - dw[1]);
+    fz[a] += k * (du[2] - dw[2]);
+    fx[a + 1] += k * dw[0];
+    fy[a + 1] += k * dw[1];
+    fz[a + 1] += k * dw[2];
+  }
+  return energy;
+}
+
 static void elastic_sample_forces(vsc_rod* rod) {
   int N = rod->sample_count;
   memset(rod->force_x, 0, sizeof(double) * N);
@@ -308,6 +345,7 @@ static void elastic_sample_forces(vsc_rod* rod) {
     spring_tensions(rod, N - 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
     add_spring_forces(rod, 2);
   }
+  curvature_bending(rod, 1);
 }
 
 // Virtual work as a gather: Q_k += sum over samples a of b_k(s_a) F_a, each
@@ -400,7 +438,7 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
     double d = rod->edge_length[a] - rod->rest_spacing;
     e += 0.5 * rod->stretch_spring * d * d;
   }
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL);
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, 0);
   if (N > 2) {
     spring_edges(rod, 2);
     for (int a = 0; a + 2 < N; ++a) {

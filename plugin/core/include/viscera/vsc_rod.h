@@ -12,6 +12,13 @@
 //   stretch springs  p_a -- p_{a+1}: 1/2 k_s (|p_{a+1} - p_a| - l0)^2
 //   bend springs     p_a -- p_{a+2}: 1/2 k_b (|p_{a+2} - p_a| - 2 l0)^2  (paper Fig. 1)
 //   global stretch   1/2 K_g (l - length)^2, l = sum |p_{a+1} - p_a|   (paper 3.1.3)
+//   curvature        (EI / l0) (1 - cos theta_a) at each interior sample, theta_a
+//                    the turning angle between its two spring edges: EI theta^2 / (2 l0)
+//                    = 1/2 EI kappa^2 l0 for small angles (kappa = theta / l0), the
+//                    Kirchhoff rod's bending energy, so EI is the material's. The bend
+//                    springs above are not: a chord of a bent arc shortens by
+//                    kappa^2 l0^3 / 3, so their energy is quartic in curvature and
+//                    gives no linear bending stiffness (the paper's model).
 // Per-spring constants are scaled from the whole-intestine stiffnesses so the
 // response does not depend on the resolution: k_s = stretch_stiffness (N-1),
 // k_b = bend_stiffness (N-1). A straight intestine pulled by its ends then has
@@ -37,6 +44,7 @@ typedef struct vsc_rod_def {
   double stretch_stiffness;          ///< whole-intestine stretch spring stiffness (N/m, >= 0)
   double bend_stiffness;             ///< whole-intestine bend spring stiffness (N/m, >= 0)
   double global_stretch_stiffness;   ///< global length stiffness K_g (N/m, >= 0)
+  double bending_rigidity;           ///< EI of the curvature bending energy (N m^2, >= 0; 0: none)
   double damping;                    ///< mass-proportional viscous damping (1/s, >= 0)
   double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
