@@ -44,6 +44,11 @@ BAD = [
     ({"shape": "polyline", "points": "0 0 0 1 0 0"}, ["polyline", "points"]),  # 1 m < 4 m
     ({"shape": "control_points"}, ["points", "control_points"]),
     ({"shape": "control_points", "control_points": "4", "points": "0 0 0 1 0 0 2 0 0"}, ["points", "3 points", "4"]),
+    ({"young_modulus": "-1"}, ["young_modulus", "-1"]),
+    ({"young_modulus": "inf"}, ["young_modulus", "inf"]),
+    ({"wall_thickness": "0.002"}, ["wall_thickness", "young_modulus"]),
+    ({"young_modulus": "1e5", "wall_thickness": "0.02"}, ["wall_thickness", "0.02", "radius"]),
+    ({"bending_rigidity": "-1"}, ["bending_rigidity", "-1"]),
     ({"shape": "serpentine"}, ["box"]),
     ({"shape": "serpentine", "box": "0 0 0 0.3 0.1 0.05"}, ["box", "0 0 0 0.3 0.1 0.05", "cannot hold"]),
     ({"shape": "serpentine", "box": "1 0 0 0 1 1"}, ["box", "min"]),
