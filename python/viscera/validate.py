@@ -94,6 +94,87 @@ def cantilever(n: int) -> dict:
             "wall_s_per_sim_s": cost, "substeps": substeps}
 
 
+def _stable(config: dict, step: float, seconds: float = 0.2) -> str:
+    """'stable', or how a released, 2 %-stretched straight rod fails at this RK4 substep (s):
+    'diverged' (the guard caught NaN or runaway speed) or 'stretch runaway' (length off by 50 %)."""
+    xml = (f'<mujoco><option timestep="{step}" gravity="0 0 0"/>'
+           f'{viscera.extension_xml("rod", **config, substeps=1)}<worldbody/></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    gut = viscera.intestine(model)
+    gut.positions(data)[:] *= 1.02
+    for _ in range(int(np.ceil(seconds / step))):
+        mujoco.mj_step(model, data)
+        if gut.divergence_count(data):
+            return "diverged"
+    if abs(gut.length(data, 2000) / config["length"] - 1.0) > 0.5:
+        return "stretch runaway"
+    return "stable"
+
+
+def largest_stable_step(config: dict) -> tuple[float, str]:
+    """Bisection (in log) of the largest stable RK4 substep (s), and how the next step up fails."""
+    low, high = 1e-6, 2e-2
+    failure = _stable(config, high)
+    if failure == "stable":
+        return high, "stable at 20 ms"
+    for _ in range(14):
+        middle = np.sqrt(low * high)
+        outcome = _stable(config, middle)
+        if outcome == "stable":
+            low = middle
+        else:
+            high, failure = middle, outcome
+    return low, failure
+
+
+def stability_map(quick: bool = False) -> dict:
+    """Largest stable RK4 substep against stretch stiffness (250 points) and against control points
+    (default stiffness), 4 m rod, no damping, no contact. The plugin's divergence warnings, expected
+    past each limit, are silenced meanwhile."""
+    mujoco.set_mju_user_warning(lambda message: None)
+    try:
+        return _stability_map(quick)
+    finally:
+        mujoco.set_mju_user_warning(None)
+
+
+def _stability_map(quick: bool) -> dict:
+    base = dict(length=4, damping=0, self_collision=0, shape="line")
+    stiffnesses = (10, 100, 1000) if quick else (3, 10, 30, 100, 300, 1000)
+    counts = (50, 250) if quick else (25, 50, 100, 250, 500, 1000)
+    out = {"integrator": "rk4", "against_stretch_stiffness": [], "against_control_points": []}
+    for k in tqdm(stiffnesses, desc="stability vs stiffness", leave=False):
+        step, failure = largest_stable_step(dict(base, control_points=250, stretch_stiffness=k))
+        out["against_stretch_stiffness"].append({"stretch_stiffness": k, "largest_step_s": step, "failure": failure})
+    for n in tqdm(counts, desc="stability vs points", leave=False):
+        step, failure = largest_stable_step(dict(base, control_points=n))
+        out["against_control_points"].append({"control_points": n, "largest_step_s": step, "failure": failure})
+    return out
+
+
+def cost_per_step(quick: bool = False) -> dict:
+    """Wall time of one RK4 substep (s) against control points, 4 m rod dropped onto a plane with
+    self-collision (the default 321 spheres), over its first 0.1 s; and the log-log slope."""
+    counts = (25, 100, 400) if quick else (25, 50, 100, 250, 500, 1000, 2000)
+    rows = []
+    for n in tqdm(counts, desc="cost per step", leave=False):
+        step = min(1e-3, 0.25 / n)  # under the stability limit at every n
+        xml = (f'<mujoco><option timestep="{step}"/>'
+               f'{viscera.extension_xml("rod", length=4, control_points=n, substeps=1, shape="line", start=[0, 0, 0.05], direction=[1, 0, 0.05])}'
+               f'<worldbody><geom type="plane" size="5 5 0.1"/></worldbody></mujoco>')
+        model = mujoco.MjModel.from_xml_string(xml)
+        data = mujoco.MjData(model)
+        steps = int(np.ceil(0.1 / step))
+        start = time.perf_counter()
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+        rows.append({"control_points": n, "seconds_per_substep": (time.perf_counter() - start) / steps})
+    n = np.log([r["control_points"] for r in rows])
+    t = np.log([r["seconds_per_substep"] for r in rows])
+    return {"rows": rows, "slope": float(np.polyfit(n, t, 1)[0])}
+
+
 CASES = {"catenary": (catenary, (25, 50, 100, 200)),
          "hanging_rod": (hanging_rod, (10, 20, 40, 80)),
          "cantilever": (cantilever, (8, 16, 32, 48))}
@@ -114,6 +195,43 @@ def run(quick: bool = False, quiet: bool = False) -> dict:
                 rows[-1]["order_in_control_points"] = float(
                     -np.log(b["relative_error"] / a["relative_error"]) / np.log(b["control_points"] / a["control_points"]))
     return results
+
+
+def plot_maps(stability: dict, cost: dict, folder: pathlib.Path) -> list[pathlib.Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
+    for ax, key, label in ((axes[0], "against_stretch_stiffness", "stretch_stiffness"),
+                           (axes[1], "against_control_points", "control_points")):
+        rows = stability[key]
+        x = [r[label] for r in rows]
+        y = [r["largest_step_s"] * 1e3 for r in rows]
+        ax.loglog(x, y, "o-", label="RK4: largest stable substep")
+        for r in rows:
+            ax.annotate(r["failure"], (r[label], r["largest_step_s"] * 1e3 * 1.1), fontsize=7)
+        ax.set_xlabel(label.replace("_", " ") + (" (N/m)" if "stiffness" in label else ""))
+        ax.set_ylabel("substep (ms)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("stability map (4 m rod, released from 2 % stretch, no damping); label: failure past it", fontsize=9)
+    fig.tight_layout()
+    stability_path = folder / "stability_map.png"
+    fig.savefig(stability_path, dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(5, 3.6))
+    x = [r["control_points"] for r in cost["rows"]]
+    y = [r["seconds_per_substep"] * 1e6 for r in cost["rows"]]
+    ax.loglog(x, y, "o-", label=f"RK4 substep, self-collision on (slope {cost['slope']:.2f})")
+    ax.set_xlabel("control points")
+    ax.set_ylabel("wall time per substep (us)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    cost_path = folder / "cost_per_step.png"
+    fig.savefig(cost_path, dpi=110)
+    plt.close(fig)
+    return [stability_path, cost_path]
 
 
 def plot(results: dict, folder: pathlib.Path) -> list[pathlib.Path]:
@@ -159,10 +277,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     results = run(args.quick, args.quiet)
+    stability = stability_map(args.quick)
+    cost = cost_per_step(args.quick)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "results.json").write_text(json.dumps(results, indent=2))
+    (args.out / "results.json").write_text(json.dumps(
+        {"cases": results, "stability_map": stability, "cost_per_step": cost}, indent=2))
     plot(results, args.out)
+    plot_maps(stability, cost, args.out)
     print(report(results))
+    for key, label in (("against_stretch_stiffness", "stretch_stiffness"), ("against_control_points", "control_points")):
+        print("RK4 largest stable substep vs " + label + ": " + ", ".join(
+            f"{r[label]}: {r['largest_step_s'] * 1e3:.3g} ms ({r['failure']})" for r in stability[key]))
+    print("cost per substep (us): " + ", ".join(f"n={r['control_points']}: {r['seconds_per_substep'] * 1e6:.1f}"
+                                                 for r in cost["rows"]) + f"; log-log slope {cost['slope']:.2f}")
     print(f"wrote {args.out / 'results.json'} and the charts")
     return 0
 

@@ -44,3 +44,15 @@ def test_cantilever_converges_to_the_beam_deflection_at_first_order():
     assert errors[1] < 0.1
     assert 1.6 < errors[0] / errors[1] < 2.4
     assert fine["value"] < fine["reference"]  # over-constrained: stiffer, never softer
+
+
+def test_rk4_stability_limit_and_how_it_fails():
+    """Past its largest stable substep (1.5 ms at the defaults, measured by power iteration in
+    issue 3) RK4 blows up, and the divergence guard catches it: restored, counted, never NaN."""
+    step, failure = validate.largest_stable_step(dict(length=4, damping=0, self_collision=0, shape="line",
+                                                      control_points=250))
+    assert 1.2e-3 < step < 2.0e-3
+    assert failure == "diverged"
+    stiff, _ = validate.largest_stable_step(dict(length=4, damping=0, self_collision=0, shape="line",
+                                                 control_points=250, stretch_stiffness=1000))
+    assert stiff / step == pytest.approx(np.sqrt(10 / 1000), rel=0.35)  # h_max ~ 1 / sqrt(k)
