@@ -2,7 +2,6 @@
 
 import mujoco
 import numpy as np
-import pytest
 from mujoco import rollout
 
 import viscera
