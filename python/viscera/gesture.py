@@ -63,8 +63,6 @@ class ClearingGesture:
         self.gravity = model.opt.gravity.copy()
         self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in physics.named.data.ctrl.axes.row.names
                               else -1 for c in COORDINATES] for t in TOOLS}
-        self.joint_names = [f"{t}_{c}" for t in TOOLS for c in COORDINATES if f"{t}_{c}" in
-                            physics.named.data.qpos.axes.row.names]
         self.action_size = model.nu
         self._reset()
 

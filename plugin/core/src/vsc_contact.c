@@ -115,6 +115,18 @@ static void closest_segments(const double* p0, const double* p1, const double* q
 }
 
 // Capsule contact of segments a < b (segment k joins spheres k and k + 1).
+// Closest points of segments a (sphere a to a + 1) and b of the sphere chain x:
+// their parameters s, t, the vector d from b's point to a's (m), its length (m).
+static double segment_gap(const double* x, int a, int b, double* s, double* t, double d[3]) {
+  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, s, t);
+  for (int c = 0; c < 3; ++c) {
+    double P = (1.0 - *s) * x[3 * a + c] + *s * x[3 * a + 3 + c];
+    double Q = (1.0 - *t) * x[3 * b + c] + *t * x[3 * b + 3 + c];
+    d[c] = P - Q;
+  }
+  return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
 static void self_pair(void* context, int earlier, int item) {
   pass* p = (pass*)context;
   vsc_rod* rod = p->rod;
@@ -127,15 +139,8 @@ static void self_pair(void* context, int earlier, int item) {
   double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
   double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
   if (gap2 >= reach * reach) return;
-  double s, t;
-  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
-  double P[3], Q[3], vp[3], vq[3], d[3];
-  for (int c = 0; c < 3; ++c) {
-    P[c] = (1.0 - s) * x[3 * a + c] + s * x[3 * a + 3 + c];
-    Q[c] = (1.0 - t) * x[3 * b + c] + t * x[3 * b + 3 + c];
-    d[c] = P[c] - Q[c];
-  }
-  double distance = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  double s, t, vp[3], vq[3], d[3];
+  double distance = segment_gap(x, a, b, &s, &t, d);
   double depth = 2.0 * rod->def.radius - distance;
   if (!(depth > 0.0)) return;
   double n[3] = {0.0, 0.0, 1.0};  // crossing axes: any direction separates them
@@ -276,14 +281,9 @@ static void collect_self(void* context, int earlier, int item) {
   // sphere moves m / 2 the distance shrinks by less than m, so the others cannot
   // touch before the lists are rebuilt; overlapping grid boxes alone admit
   // several times more pairs, which every force evaluation would then test
-  const double* x = b->rod->sphere_xyz;
-  double s, t, d2 = 0.0, limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
-  closest_segments(x + 3 * lo, x + 3 * lo + 3, x + 3 * hi, x + 3 * hi + 3, &s, &t);
-  for (int c = 0; c < 3; ++c) {
-    double d = (1.0 - s) * x[3 * lo + c] + s * x[3 * lo + 3 + c] - (1.0 - t) * x[3 * hi + c] - t * x[3 * hi + 3 + c];
-    d2 += d * d;
-  }
-  if (d2 > limit * limit) return;
+  double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
+  double distance = segment_gap(b->rod->sphere_xyz, lo, hi, &s, &t, d);
+  if (distance > limit) return;
   if (l->self_count >= l->self_capacity) {
     b->overflow = 1;
     return;
