@@ -17,7 +17,7 @@ const char* const vsc_plugin_attributes[] = {
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
     "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
     "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
-    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity"};
+    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -52,7 +52,7 @@ static const char* raw(reader* r, const char* key) {
 // finite number, -2 if there are more than `capacity`.
 static int parse_numbers(const char* text, double* out, int capacity) {
   int count = 0;
-  const char* p = text;
+  const char* p = text ? text : "";
   for (;;) {
     while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') ++p;
     if (!*p) return count;
@@ -130,7 +130,7 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
   c->pinned = NULL;
   c->rod.pinned = NULL;
   c->rod.pinned_count = 0;
-  if (!text) return 0;
+  if (!text && !c->rod.clamp_start && !c->rod.clamp_end) return 0;
   int n = c->rod.control_count;
   c->pinned = (int*)malloc(sizeof(int) * (size_t)n);
   unsigned char* seen = (unsigned char*)calloc((size_t)n, 1);
@@ -139,7 +139,7 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
     return fail(r, "out of memory reading 'pinned'");
   }
   int status = 0;
-  const char* p = text;
+  const char* p = text ? text : "";
   for (;;) {
     while (*p == ' ' || *p == '\t' || *p == '\n') ++p;
     if (!*p) break;
@@ -158,6 +158,18 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
     seen[k] = 1;
     p = end;
   }
+  // a clamped end pins its control point; with a bending rigidity the clamp term
+  // holds the tangent, without one (the paper's springs) the neighbour is pinned too
+  int clamped_ends[2] = {c->rod.clamp_start, c->rod.clamp_end};
+  for (int end = 0; end < 2 && status == 0; ++end) {
+    if (!clamped_ends[end]) continue;
+    int held[2] = {end ? n - 1 : 0, end ? n - 2 : 1};
+    for (int i = 0; i < (c->rod.bending_rigidity > 0.0 ? 1 : 2); ++i) {
+      if (!seen[held[i]]) c->pinned[c->rod.pinned_count++] = held[i];
+      seen[held[i]] = 1;
+    }
+  }
+  if (c->rod.bending_rigidity == 0.0) c->rod.clamp_start = c->rod.clamp_end = 0;
   free(seen);
   c->rod.pinned = c->pinned;
   return status;
@@ -360,9 +372,35 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (integrator && strcmp(integrator, "rk4") != 0)
     return fail(&r, "attribute 'integrator' = '%s' must be rk4", integrator);
   c->integrator = VSC_INTEGRATOR_RK4;
+  const char* clamped = raw(&r, "clamped");
+  static const char* const clamp_names[4] = {"none", "start", "end", "both"};
+  int clamp = clamped ? -1 : 0;
+  for (int i = 0; clamped && i < 4; ++i)
+    if (strcmp(clamped, clamp_names[i]) == 0) clamp = i;
+  if (clamp < 0) return fail(&r, "attribute 'clamped' = '%s' must be none, start, end or both", clamped);
+  d->clamp_start = clamp & 1;
+  d->clamp_end = (clamp >> 1) & 1;
   if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c)) {
     vsc_plugin_config_free(c);
     return -1;
+  }
+  return 0;
+}
+
+int vsc_plugin_config_clamp(vsc_plugin_config* c, const double* q, char* error, int error_size) {
+  int n = c->rod.control_count, clamped[2] = {c->rod.clamp_start, c->rod.clamp_end};
+  double* direction[2] = {c->rod.clamp_direction_start, c->rod.clamp_direction_end};
+  for (int end = 0; end < 2; ++end) {
+    if (!clamped[end]) continue;
+    vsc_basis tangent = vsc_spline_basis_derivative(n, end ? 1.0 : 0.0);  // the spline's end tangent
+    vsc_basis_point(&tangent, q, direction[end]);
+    double norm = 0.0;
+    for (int i = 0; i < 3; ++i) norm += direction[end][i] * direction[end][i];
+    if (!(norm > 1e-24)) {
+      snprintf(error, (size_t)error_size, "viscera.intestine: attribute 'clamped' = '%s': the initial shape has no "
+               "tangent at that end (its two end control points coincide)", end ? "end" : "start");
+      return -1;
+    }
   }
   return 0;
 }

@@ -64,6 +64,10 @@ typedef struct vsc_plugin_config {
 int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* config, char* error,
                            int error_size);
 
+/// Set the clamp directions of clamped ends from the initial control points
+/// q (m, 3n): the spline's end tangents. Returns 0, or -1 with a message.
+int vsc_plugin_config_clamp(vsc_plugin_config* config, const double* q, char* error, int error_size);
+
 /// Release what vsc_plugin_config_read allocated.
 void vsc_plugin_config_free(vsc_plugin_config* config);
 

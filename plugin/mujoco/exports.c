@@ -3,6 +3,7 @@
 // attribute list from its single definition.
 #define _POSIX_C_SOURCE 199309L  // clock_gettime
 #include <math.h>
+#include <stdlib.h>
 #include <time.h>
 
 #include "config.h"
@@ -138,4 +139,30 @@ VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, int rings_per_
   int n;
   if (skin_def(m, instance, rings_per_segment, ring_points, &def, &n)) return -1;
   return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
+}
+
+/// Energies of intestine `instance` at control points q (m, 3n) and velocities
+/// v (m/s, 3n) under `gravity` (m/s^2): out = {elastic, gravitational (zero at
+/// the origin), kinetic} (J). Builds the rod it measures with (O(n)): for
+/// checks and benchmarks, not for every step. Returns 0, or -1.
+VSC_EXPORT int viscera_intestine_energy(const mjModel* m, int instance, const double* q, const double* v,
+                                        const double gravity[3], double out[3]) {
+  vsc_plugin_config config;
+  char error[256];
+  if (read_intestine(m, instance, &config)) return -1;
+  int n = config.rod.control_count, status = -1;
+  double* initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  vsc_rod* rod = NULL;
+  if (initial_q && vsc_plugin_config_layout(&config, initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_plugin_config_clamp(&config, initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_rod_create(&config.rod, &rod) == VSC_OK) {
+    out[0] = vsc_rod_elastic_energy(rod, q);
+    out[1] = vsc_rod_gravity_energy(rod, gravity, q);
+    out[2] = vsc_rod_kinetic_energy(rod, v);
+    status = 0;
+  }
+  vsc_rod_destroy(rod);
+  free(initial_q);
+  vsc_plugin_config_free(&config);
+  return status;
 }

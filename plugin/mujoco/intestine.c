@@ -148,7 +148,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     intestine_free(it);
     return NULL;
   }
-  if (vsc_plugin_config_layout(&it->config, it->initial_q, error, ERROR_SIZE)) {
+  if (vsc_plugin_config_layout(&it->config, it->initial_q, error, ERROR_SIZE) ||
+      vsc_plugin_config_clamp(&it->config, it->initial_q, error, ERROR_SIZE)) {
     intestine_free(it);
     return NULL;
   }

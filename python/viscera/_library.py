@@ -57,6 +57,8 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_skin_build.restype = ctypes.c_int
             _ctypes_library.viscera_skin_build.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int] + [
                 ctypes.c_void_p] * 4
+            _ctypes_library.viscera_intestine_energy.restype = ctypes.c_int
+            _ctypes_library.viscera_intestine_energy.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
             _loaded = path
         return _loaded
 

@@ -130,6 +130,24 @@ class Intestine:
             out.append(Grasp(site, GRASP_STATUS.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
         return out
 
+    def energy(self, data: mujoco.MjData) -> dict[str, float]:
+        """Energies of the axis (J): 'elastic' (every spring, bending and tether term), 'gravity'
+        (zero at the origin, under the model's gravity) and 'kinetic' (1/2 v^T M v, consistent mass).
+        Rebuilds the plugin's rod to measure (O(n)): for checks, not for every step."""
+        q = np.ascontiguousarray(self.positions(data))
+        v = np.ascontiguousarray(self.velocities(data))
+        gravity = np.ascontiguousarray(self.model.opt.gravity, dtype=np.float64)
+        if self.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+            gravity = np.zeros(3)
+        out = np.zeros(3)
+        status = _library.native().viscera_intestine_energy(
+            ctypes.c_void_p(self.model._address), self.instance, q.ctypes.data_as(ctypes.c_void_p),
+            v.ctypes.data_as(ctypes.c_void_p), gravity.ctypes.data_as(ctypes.c_void_p),
+            out.ctypes.data_as(ctypes.c_void_p))
+        if status != 0:
+            raise RuntimeError(f"viscera: cannot evaluate the energy of intestine instance {self.instance}")
+        return {"elastic": float(out[0]), "gravity": float(out[1]), "kinetic": float(out[2])}
+
     def divergence_count(self, data: mujoco.MjData) -> int:
         """Number of steps whose state diverged and was restored since the last reset."""
         return int(self._state(data)[6 * self.control_count])

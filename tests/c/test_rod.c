@@ -68,10 +68,11 @@ static void mass_matrix_exact_band7_spd_total(void) {
 
 // -dE/dq from vsc_rod_forces against central differences, one term at a time
 // (the fourth: mesentery tethers alone, some slack, some pulling; the fifth:
-// curvature bending alone).
+// curvature bending alone; the sixth: curvature with both ends clamped, along
+// directions the crumpled axis does not follow).
 static void gradient_matches_central_differences(void) {
-  double terms[5][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}, {0, 0, 0}};
-  for (int t = 0; t < 5; ++t) {
+  double terms[6][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  for (int t = 0; t < 6; ++t) {
     int n = 12;
     vsc_rod_def def = vsc_default_rod_def();
     def.control_count = n;
@@ -87,9 +88,17 @@ static void gradient_matches_central_differences(void) {
       double root[6] = {0.0, 0.0, -0.5, 3.0, 0.0, -0.5};
       for (int i = 0; i < 6; ++i) def.mesentery_root[i] = root[i];
     }
-    if (t == 4) {
+    if (t >= 4) {
       def.stretch_stiffness = 1e-9;
       def.bending_rigidity = 0.02;  // N m^2
+    }
+    if (t == 5) {
+      double start[3] = {0.0, 2.0, 1.0}, end[3] = {-1.0, 0.5, 0.0};  // normalised by creation
+      def.clamp_start = def.clamp_end = 1;
+      for (int i = 0; i < 3; ++i) {
+        def.clamp_direction_start[i] = start[i];
+        def.clamp_direction_end[i] = end[i];
+      }
     }
     vsc_rod* rod = NULL;
     ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
@@ -163,10 +172,30 @@ static void pinned_points_do_not_accelerate(void) {
   vsc_rod_destroy(rod);
 }
 
+// A clamp needs a direction and a bending rigidity to hold it.
+static void clamp_definitions_are_checked(void) {
+  vsc_rod_def def = vsc_default_rod_def();
+  def.control_count = 12;
+  def.clamp_start = 1;
+  def.bending_rigidity = 0.02;
+  vsc_rod* rod = NULL;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_ERROR_INVALID_ARGUMENT && rod == NULL);  // zero direction
+  def.clamp_direction_start[0] = NAN;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_ERROR_INVALID_ARGUMENT && rod == NULL);
+  def.clamp_direction_start[0] = 3.0;
+  def.bending_rigidity = 0.0;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_ERROR_INVALID_ARGUMENT && rod == NULL);  // nothing holds the angle
+  def.bending_rigidity = 0.02;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
+  ENSURE_NEAR(rod->def.clamp_direction_start[0], 1.0, 1e-15);
+  vsc_rod_destroy(rod);
+}
+
 int main(void) {
   RUN(mass_matrix_exact_band7_spd_total);
   RUN(gradient_matches_central_differences);
   RUN(free_fall_is_exact);
   RUN(pinned_points_do_not_accelerate);
+  RUN(clamp_definitions_are_checked);
   TEST_MAIN_END();
 }

@@ -22,18 +22,22 @@ static void interpolates_control_points(void) {
   }
 }
 
-// A straight line of evenly spaced points is reproduced exactly, also in the
-// end segments (the linear phantom closure is exact for linear data).
-static void reproduces_lines(void) {
+// A parabola sampled at evenly spaced control points is reproduced exactly,
+// also in the end segments (the quadratic phantom closure; the paper's linear
+// one, 2 q_0 - q_1, bends the end segments off it), and so is its tangent.
+static void reproduces_quadratics(void) {
   int n = 7;
   double q[21];
-  for (int k = 0; k < n; ++k) { q[3 * k] = 2.0 * k; q[3 * k + 1] = -k; q[3 * k + 2] = 0.5; }
+  for (int k = 0; k < n; ++k) { q[3 * k] = 2.0 * k; q[3 * k + 1] = -k; q[3 * k + 2] = 0.5 * k * k - k; }
   for (int i = 0; i <= 100; ++i) {
-    double s = i / 100.0, p[3];
-    vsc_basis b = vsc_spline_basis(n, s);
+    double s = i / 100.0, x = s * (n - 1), p[3], dp[3];
+    vsc_basis b = vsc_spline_basis(n, s), d = vsc_spline_basis_derivative(n, s);
     vsc_basis_point(&b, q, p);
-    ENSURE_NEAR(p[0], 2.0 * s * (n - 1), 1e-12);
-    ENSURE_NEAR(p[1], -s * (n - 1), 1e-12);
+    vsc_basis_point(&d, q, dp);
+    ENSURE_NEAR(p[0], 2.0 * x, 1e-12);
+    ENSURE_NEAR(p[1], -x, 1e-12);
+    ENSURE_NEAR(p[2], 0.5 * x * x - x, 1e-12);
+    ENSURE_NEAR(dp[2], (x - 1.0) * (n - 1), 1e-10);  // d/ds = d/dx (n - 1)
   }
 }
 
@@ -59,7 +63,7 @@ static void derivative_matches_finite_difference_and_is_continuous(void) {
 int main(void) {
   RUN(partition_of_unity);
   RUN(interpolates_control_points);
-  RUN(reproduces_lines);
+  RUN(reproduces_quadratics);
   RUN(derivative_matches_finite_difference_and_is_continuous);
   TEST_MAIN_END();
 }

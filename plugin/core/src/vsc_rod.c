@@ -59,6 +59,14 @@ static vsc_status validate(const vsc_rod_def* d) {
     return VSC_ERROR_INVALID_ARGUMENT;
   for (int i = 0; i < 6; ++i)
     if (!isfinite(d->mesentery_root[i])) return VSC_ERROR_INVALID_ARGUMENT;
+  const double* clamp_direction[2] = {d->clamp_direction_start, d->clamp_direction_end};
+  int clamped[2] = {d->clamp_start, d->clamp_end};
+  for (int end = 0; end < 2; ++end) {
+    if (!clamped[end]) continue;
+    const double* t = clamp_direction[end];
+    double norm = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
+    if (!(d->bending_rigidity > 0.0) || !isfinite(norm) || !(norm > 1e-24)) return VSC_ERROR_INVALID_ARGUMENT;
+  }
   for (int i = 0; i < d->pinned_count; ++i)
     if (d->pinned[i] < 0 || d->pinned[i] >= d->control_count) return VSC_ERROR_INVALID_ARGUMENT;
   return VSC_OK;
@@ -140,6 +148,13 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   if (!rod) return VSC_ERROR_OUT_OF_MEMORY;
   int n = def->control_count, spheres = def->collision_sphere_count, S = def->samples_per_segment;
   rod->def = *def;
+  double* clamp_direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
+  for (int end = 0; end < 2; ++end) {
+    double* t = clamp_direction[end];
+    double norm = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    if (norm > 0.0)
+      for (int i = 0; i < 3; ++i) t[i] /= norm;
+  }
   rod->n = n;
   rod->sample_count = (n - 1) * S + 1;
   int N = rod->sample_count;
@@ -325,6 +340,28 @@ static double curvature_bending(vsc_rod* rod, int forces) {
     fx[a + 1] += k * dw[0];
     fy[a + 1] += k * dw[1];
     fz[a + 1] += k * dw[2];
+  }
+  // clamps: 2k (1 - t . e / |e|) on the first and last spring edges e
+  int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
+  const double* direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
+  for (int end = 0; end < 2; ++end) {
+    if (!clamped[end]) continue;
+    int a = end ? N - 2 : 0;  // edge from sample a to a + 1
+    const double* t = direction[end];
+    double e[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
+    double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    if (!(length > 0.0)) continue;
+    double c = (t[0] * e[0] + t[1] * e[1] + t[2] * e[2]) / length;
+    energy += 2.0 * k * (1.0 - c);
+    if (!forces) continue;
+    double g[3];  // F on sample a + 1 = 2k dc/de
+    for (int i = 0; i < 3; ++i) g[i] = 2.0 * k * (t[i] - c * e[i] / length) / length;
+    fx[a + 1] += g[0];
+    fy[a + 1] += g[1];
+    fz[a + 1] += g[2];
+    fx[a] -= g[0];
+    fy[a] -= g[1];
+    fz[a] -= g[2];
   }
   return energy;
 }

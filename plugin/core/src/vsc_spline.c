@@ -19,25 +19,25 @@ void vsc_catmull_rom_derivatives(double u, double d[VSC_SPLINE_SUPPORT]) {
 }
 
 // Fold the weights of q_{j-1}..q_{j+2} of segment j onto real control points
-// (phantoms q_{-1} = 2q_0 - q_1 and q_n = 2q_{n-1} - q_{n-2}) and place them in
+// (phantoms q_{-1} = 3q_0 - 3q_1 + q_2 and q_n = 3q_{n-1} - 3q_{n-2} + q_{n-3}) and place them in
 // a window of four that always lies inside [0, n).
 static vsc_basis fold_segment(int n, int j, const double local[VSC_SPLINE_SUPPORT]) {
   double w[VSC_SPLINE_SUPPORT] = {local[0], local[1], local[2], local[3]};
   vsc_basis b;
-  if (j == 0) {  // q_{-1} folds onto q_0 (x2) and q_1 (x-1)
+  if (j == 0) {  // q_{-1} folds onto q_0 (x3), q_1 (x-3) and q_2 (x1)
     b.first = 0;
-    b.weight[0] = w[1] + 2.0 * w[0];
-    b.weight[1] = w[2] - w[0];
-    b.weight[2] = w[3];
+    b.weight[0] = w[1] + 3.0 * w[0];
+    b.weight[1] = w[2] - 3.0 * w[0];
+    b.weight[2] = w[3] + w[0];
     b.weight[3] = 0.0;  // n >= 4, so segment 0 is never also the last one
     return b;
   }
-  if (j == n - 2) {  // q_n folds onto q_{n-1} (x2) and q_{n-2} (x-1)
+  if (j == n - 2) {  // q_n folds onto q_{n-1} (x3), q_{n-2} (x-3) and q_{n-3} (x1)
     b.first = n - 4;
     b.weight[0] = 0.0;
-    b.weight[1] = w[0];
-    b.weight[2] = w[1] - w[3];
-    b.weight[3] = w[2] + 2.0 * w[3];
+    b.weight[1] = w[0] + w[3];
+    b.weight[2] = w[1] - 3.0 * w[3];
+    b.weight[3] = w[2] + 3.0 * w[3];
     return b;
   }
   b.first = j - 1;

@@ -19,6 +19,13 @@
 //                    springs above are not: a chord of a bent arc shortens by
 //                    kappa^2 l0^3 / 3, so their energy is quartic in curvature and
 //                    gives no linear bending stiffness (the paper's model).
+//   clamp            (2 EI / l0) (1 - t . e / |e|) at a clamped end, e its end spring edge
+//                    and t the clamp's direction: the mirror image of the rod across the
+//                    clamp would turn by 2 theta at the end sample, whose half cell weighs
+//                    (EI / l0) (2 theta)^2 / 4 = EI theta^2 / l0, the same for small angles.
+//                    The end control point must also be pinned; the next one stays free,
+//                    so the axis bends right from the clamp (pinning two control points
+//                    would also hold the curve's point one segment out: a first-order error).
 // Per-spring constants are scaled from the whole-intestine stiffnesses so the
 // response does not depend on the resolution: k_s = stretch_stiffness (N-1),
 // k_b = bend_stiffness (N-1). A straight intestine pulled by its ends then has
@@ -52,6 +59,10 @@ typedef struct vsc_rod_def {
   double contact_damping;            ///< penalty damping, also tangential (N s/m, >= 0)
   int self_collision;                ///< 1: the intestine collides with itself
   double self_friction;              ///< Coulomb coefficient against itself (>= 0)
+  int clamp_start;                   ///< 1: the axis leaves s = 0 along clamp_direction_start (needs EI > 0)
+  double clamp_direction_start[3];   ///< clamp tangent at s = 0, towards increasing s (normalised at creation)
+  int clamp_end;                     ///< 1: the axis reaches s = 1 along clamp_direction_end (needs EI > 0)
+  double clamp_direction_end[3];     ///< clamp tangent at s = 1, towards increasing s (normalised at creation)
   const int* pinned;                 ///< indices of control points fixed in space (copied)
   int pinned_count;                  ///< number of entries of `pinned`
   // mesentery: tension-only tethers from points of the axis to a root line
