@@ -1,28 +1,42 @@
-"""Validation cases against analytic references, at several resolutions, with charts.
+"""Validation cases against analytic references, at several resolutions, peers alongside, with charts.
 
-    python -m viscera.validate [--quick] [--out docs/validation]
+    python -m viscera.validate [--quick] [--no-peers] [--out docs/validation]
 
 Each case builds a MuJoCo model with one intestine (the whole stack: plugin,
 core, MuJoCo's step), lets it come to rest under damping (dynamic
-relaxation), and compares a measured value with its analytic reference
-(formulas in ../shared/NOTES.md):
+relaxation) or rings freely, and compares a measured value with its analytic
+reference (formulas in ../shared/NOTES.md):
 
 - catenary: 4 m, ends pinned 3 m apart, the paper's springs with a stiff
   global length term: sag a (cosh(D / 2a) - 1) = 1.177335 m;
-- hanging rod: 1 m of a solid tube of E = 1e5 Pa hanging from its top:
+- hanging_rod: 1 m of a solid tube of E = 1e5 Pa hanging from its top:
   stretch mu g L^2 / (2 EA) (the springs carry EA = E pi r^2);
-- cantilever: 0.5 m clamped (first two control points pinned) under its own
-  weight, EI from young_modulus: tip deflection w L^4 / (8 EI), small (1 % of L).
+- cantilever: 0.5 m, clamped="start", under its own weight, EI from
+  young_modulus: tip deflection w L^4 / (8 EI), small (1 % of L);
+- tip_load, elastica_alpha_{1,2,5,10}: 0.5 m, EI = 1 N m^2, weightless, a dead
+  tip load P = alpha EI / L^2 hung on a grasper: deflection / L = alpha / 3
+  (alpha = 0.03), then the elastica's 0.30172, 0.49346, 0.71379, 0.81061;
+- vibration_mode_{1,2}: the same beam ringing undamped: (beta L)^2
+  sqrt(EI / (mu L^4)) / (2 pi), beta L = 1.87510, 4.69409;
+- resting_penetration: a tube on a plane sinks m g / ((S - 1) k) per sphere;
+- pile_overlap: the 4 m intestine dropped into a pile: deepest overlap of two
+  non-neighbouring parts, as a fraction of the diameter (ideal: 0).
+Invariants: the energy drift against the step (its order in dt), and the
+length of a hanging intestine with and without the paper's global length term.
+Peers (viscera.peers: MuJoCo's 1D flexcomp and cable, PyElastica if installed)
+run the same cases at their own largest stable steps, in the same process.
 
 Per case and resolution: the value, the reference, the relative error, the
 wall seconds per simulated second, and the error's order of convergence in
-control points. Writes results.json and one chart per case (error against
-wall time, the Pareto view) into the output folder.
+control points. Static cases do not depend on the step (they are relaxed to
+rest). Writes results.json and one Pareto chart per case (error against wall
+time), the stability map and the cost per substep into the output folder.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import pathlib
 import time
@@ -39,13 +53,20 @@ DENSITY = 1000.0
 MU = DENSITY * np.pi * RADIUS**2  # kg/m
 
 
-def _relax(config: dict, duration: float, timestep: float, gravity=(0.0, 0.0, -G)):
-    """Compile and step an intestine for `duration` s; return its data, intestine, wall s per sim s."""
+def _compile(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = ""):
     xml = (f'<mujoco><option timestep="{timestep}" gravity="{gravity[0]} {gravity[1]} {gravity[2]}"/>'
-           f'{viscera.extension_xml("rod", **config)}<worldbody/></mujoco>')
+           f'{viscera.extension_xml("rod", **config)}<worldbody>{worldbody}</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    gut = viscera.intestine(model)
+    return model, mujoco.MjData(model), viscera.intestine(model)
+
+
+def _relax(config: dict, duration: float, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = "",
+           setup=None):
+    """Compile and step an intestine for `duration` s; return its data, intestine, wall s per sim s.
+    `setup(model, data)`, if given, runs before the first step (loads, initial velocities)."""
+    model, data, gut = _compile(config, timestep, gravity, worldbody)
+    if setup:
+        setup(model, data)
     steps = int(round(duration / timestep))
     start = time.perf_counter()
     for _ in range(steps):
@@ -54,6 +75,16 @@ def _relax(config: dict, duration: float, timestep: float, gravity=(0.0, 0.0, -G
     if gut.divergence_count(data):
         raise RuntimeError(f"diverged: {config}")
     return data, gut, wall / (steps * timestep)
+
+
+def _substeps(n: int, length: float, rigidity: float, axial: float = 0.0, extra_rate: float = 0.0,
+              step: float = 1e-3) -> int:
+    """RK4 substeps per `step` (s) under the stability limit of the stiffest mode: curvature
+    (EI, N m^2) and axial (EA, N) waves at the sample spacing, and `extra_rate` (rad/s)."""
+    spacing = length / (2 * (n - 1))  # sample spacing (m), 2 samples per segment
+    bending = 2.0 * np.sqrt(rigidity / (MU * spacing**4))
+    stretch = 2.0 * np.sqrt(axial / MU) / spacing
+    return int(np.ceil(step * max(bending, stretch, extra_rate) / 1.5))
 
 
 def catenary(n: int) -> dict:
@@ -76,22 +107,152 @@ def hanging_rod(n: int) -> dict:
     return {"value": gut.length(data) - length, "reference": reference, "unit": "m", "wall_s_per_sim_s": cost}
 
 
+SECOND_MOMENT = np.pi * RADIUS**4 / 4.0  # m^4, solid section
+
+
 def cantilever(n: int) -> dict:
+    """0.5 m clamped (config clamped="start") under its own weight, EI for a 1 % tip deflection."""
     length, tip_fraction = 0.5, 0.01
-    second_moment = np.pi * RADIUS**4 / 4.0
-    rigidity = MU * G * length**4 / (8.0 * tip_fraction * length)   # EI for a 1 % tip deflection
-    young = rigidity / second_moment
+    rigidity = MU * G * length**4 / (8.0 * tip_fraction * length)
     # the axis barely stretches here: a softer EA (raw stiffness wins) keeps the step affordable
-    spacing = length / (2 * (n - 1))  # sample spacing (m)
-    omega = np.sqrt(rigidity / spacing**3 / (MU * spacing)) * 2.0  # stiffest curvature mode (rad/s)
-    substeps = int(np.ceil(1e-3 * omega / 1.5))
-    config = dict(length=length, control_points=n, radius=RADIUS, density=DENSITY, young_modulus=young,
-                  stretch_stiffness=2000, damping=30, substeps=substeps, self_collision=0, shape="line",
-                  direction=[1, 0, 0], pinned=[0, 1])
+    substeps = _substeps(n, length, rigidity)
+    config = dict(length=length, control_points=n, radius=RADIUS, density=DENSITY,
+                  young_modulus=rigidity / SECOND_MOMENT, stretch_stiffness=2000, damping=30, substeps=substeps,
+                  self_collision=0, shape="line", direction=[1, 0, 0], clamped="start")
     data, gut, cost = _relax(config, 0.6, 0.001)
     tip = gut.axis_points(data, 2)[-1]
     return {"value": -tip[2], "reference": MU * G * length**4 / (8.0 * rigidity), "unit": "m",
             "wall_s_per_sim_s": cost, "substeps": substeps}
+
+
+# Tip-loaded cantilever: 0.5 m, EI = 1 N m^2, weightless (gravity off), EA from the same E.
+TIP_LENGTH, TIP_RIGIDITY = 0.5, 1.0
+# Elastica, inextensible, dead vertical tip load: vertical tip deflection / L (NOTES.md).
+ELASTICA = {1.0: 0.30172, 2.0: 0.49346, 5.0: 0.71379, 10.0: 0.81061}
+GRASP_STIFFNESS = 2.0e4  # N/m: the hook holding the load stretches P / k (2 mm at 40 N)
+
+
+def tip_load(n: int, alpha: float) -> dict:
+    """A free body hooked to the tip by a grasper (the whole stack: site, jaw joint, hold
+    spring) and pushed down by a constant xfrc_applied P = alpha EI / L^2 (a dead load).
+    Reference: alpha / 3 (linear) below alpha = 0.1, else the elastica table."""
+    length, rigidity = TIP_LENGTH, TIP_RIGIDITY
+    young = rigidity / SECOND_MOMENT
+    axial = young * np.pi * RADIUS**2
+    load = alpha * rigidity / length**2
+    tip_mass = MU * length / (n - 1) / 3.0  # about the consistent mass at the end control point
+    substeps = _substeps(n, length, rigidity, axial, np.sqrt(GRASP_STIFFNESS / tip_mass))
+    config = dict(length=length, control_points=n, radius=RADIUS, density=DENSITY, young_modulus=young, damping=30,
+                  substeps=substeps, self_collision=0, shape="line", direction=[1, 0, 0], clamped="start",
+                  grasp_sites="hook", grasp_joints="jaw", grasp_stiffness=GRASP_STIFFNESS, grasp_damping=2,
+                  grasp_slip_force=1e9)
+    # the load: 1 kg on slide joints (no rotation to settle), damped about critically on the
+    # beam's tip stiffness 3 EI / L^3; the jaw is a hinge nothing turns, so it never opens.
+    # (A 0.1 kg load oscillated and grew: the hold's force reaches MuJoCo once per step.)
+    worldbody = (f'<body name="load" pos="{length} 0 0">'
+                 '<joint type="slide" axis="1 0 0" damping="10"/><joint type="slide" axis="0 1 0" damping="10"/>'
+                 '<joint type="slide" axis="0 0 1" damping="10"/>'
+                 '<geom type="sphere" size="0.005" mass="1" contype="0" conaffinity="0"/><site name="hook"/>'
+                 '<body name="jaw"><joint name="jaw" type="hinge" axis="1 0 0"/>'
+                 '<geom type="sphere" size="0.002" mass="0.001" contype="0" conaffinity="0"/></body></body>')
+
+    def hang(model, data):
+        data.xfrc_applied[model.body("load").id, 2] = -load
+
+    data, gut, cost = _relax(config, 4.0, 0.001, gravity=(0, 0, 0), worldbody=worldbody, setup=hang)
+    if gut.grasps(data)[0].status != "holding":
+        raise RuntimeError("the hook let go of the tip")
+    deflection = -gut.axis_points(data, 2)[-1][2] / length
+    reference = alpha / 3.0 if alpha < 0.1 else ELASTICA[alpha]
+    return {"value": deflection, "reference": reference, "unit": "L", "wall_s_per_sim_s": cost,
+            "substeps": substeps, "load_N": load, "axial_strain": load / axial}
+
+
+def _peak_frequency(signal: np.ndarray, step: float, low: float, high: float) -> float:
+    """Frequency (Hz) of the largest spectral peak of `signal` (sampled every `step` s) in
+    [low, high]: Hann window, zero-padded FFT, then golden-section on the exact transform."""
+    x = (signal - signal.mean()) * np.hanning(signal.size)
+    t = np.arange(signal.size) * step
+    spectrum = np.abs(np.fft.rfft(x, 16 * signal.size))
+    freqs = np.fft.rfftfreq(16 * signal.size, step)
+    band = (freqs >= low) & (freqs <= high)
+    guess = freqs[band][np.argmax(spectrum[band])]
+    a, b = guess - 1.0 / (16 * signal.size * step), guess + 1.0 / (16 * signal.size * step)
+    power = lambda f: -abs(np.dot(x, np.exp(-2j * np.pi * f * t)))  # noqa: E731
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(60):
+        c, d = b - ratio * (b - a), a + ratio * (b - a)
+        if power(c) < power(d):
+            b = d
+        else:
+            a = c
+    return 0.5 * (a + b)
+
+
+BETA_L = (1.87510, 4.69409)  # cantilever eigenvalues (NOTES.md)
+
+
+@functools.lru_cache(maxsize=None)
+def _vibration_run(n: int) -> tuple[float, float, float]:
+    """Free vibration of the weightless tip-load cantilever, undamped, from a kick on its outer
+    quarter: the first two frequencies (Hz) and the wall s per sim s."""
+    length, rigidity = TIP_LENGTH, TIP_RIGIDITY
+    young = rigidity / SECOND_MOMENT
+    first = BETA_L[0]**2 * np.sqrt(rigidity / (MU * length**4)) / (2 * np.pi)
+    substeps = _substeps(n, length, rigidity, young * np.pi * RADIUS**2)
+    config = dict(length=length, control_points=n, radius=RADIUS, density=DENSITY, young_modulus=young, damping=0,
+                  substeps=substeps, self_collision=0, shape="line", direction=[1, 0, 0], clamped="start")
+    model, data, gut = _compile(config, 1e-3, gravity=(0, 0, 0))
+    velocities = gut.velocities(data)
+    velocities[int(0.75 * n):, 2] = 1e-3  # m/s: deflections stay ~1e-4 L, linear
+    steps = int(round(30.0 / first / 1e-3))  # 30 periods of the first mode
+    tip = np.empty(steps)
+    start = time.perf_counter()
+    for i in range(steps):
+        mujoco.mj_step(model, data)
+        tip[i] = gut.positions(data)[-1, 2]
+    cost = (time.perf_counter() - start) / (steps * 1e-3)
+    ratio = (BETA_L[1] / BETA_L[0])**2
+    return (_peak_frequency(tip, 1e-3, 0.5 * first, 1.5 * first),
+            _peak_frequency(tip, 1e-3, 0.5 * ratio * first, 1.5 * ratio * first), cost)
+
+
+def vibration(n: int, mode: int) -> dict:
+    rigidity, length = TIP_RIGIDITY, TIP_LENGTH
+    reference = BETA_L[mode - 1]**2 * np.sqrt(rigidity / (MU * length**4)) / (2 * np.pi)
+    frequencies = _vibration_run(n)
+    return {"value": frequencies[mode - 1], "reference": reference, "unit": "Hz", "wall_s_per_sim_s": frequencies[2]}
+
+
+def resting_penetration(n: int) -> dict:
+    """A 1 m tube lying on a plane: the interior spheres' penetration against the penalty's
+    m g / ((S - 1) k) (S spheres of stiffness k share the weight)."""
+    config = dict(length=1.0, control_points=n, damping=5, shape="line", start=[0, 0, 0.1], direction=[1, 0, 0])
+    data, gut, cost = _relax(config, 3.0, 0.001, worldbody='<geom type="plane" size="3 3 0.1"/>')
+    penetration = gut.radius - gut.sphere_centres(data)[:, 2]
+    weight = DENSITY * np.pi * RADIUS**2 * 1.0 * G
+    reference = weight / ((gut.sphere_count - 1) * 2000.0)  # default contact_stiffness, N/m
+    return {"value": float(np.median(penetration[gut.sphere_count // 8:-gut.sphere_count // 8])),
+            "reference": reference, "unit": "m", "wall_s_per_sim_s": cost,
+            "fraction_of_radius": float(penetration.max() / gut.radius)}
+
+
+def pile_overlap(n: int) -> dict:
+    """The 4 m intestine dropped into a pile on a plane, 5 s: the deepest overlap of two
+    non-neighbouring parts of the tube, as a fraction of its diameter (reference: none)."""
+    config = dict(length=4, control_points=n, shape="serpentine", box=[-0.1, -0.1, 0.05, 0.1, 0.1, 0.8])
+    data, gut, cost = _relax(config, 5.0, 0.002, worldbody='<geom type="plane" size="2 2 .1"/>')
+    count = 2 * (gut.sphere_count - 1) + 1
+    x = gut.axis_points(data, count)
+    arc = np.linspace(0.0, gut.rest_length, count)
+    closest = np.inf
+    for i in range(0, count, 64):  # blocks: the full distance matrix would be 400 MB at n = 1000
+        d = np.linalg.norm(x[i:i + 64, None, :] - x[None, :, :], axis=-1)
+        far = np.abs(arc[i:i + 64, None] - arc[None, :]) >= np.pi * gut.radius
+        closest = min(closest, d[far].min())
+    overlap = max(0.0, 2 * gut.radius - closest) / (2 * gut.radius)
+    return {"value": overlap, "reference": 0.0, "unit": "diameter", "wall_s_per_sim_s": cost,
+            "absolute_error": True, "top_m": float(x[:, 2].max())}
 
 
 def _stable(config: dict, step: float, seconds: float = 0.2) -> str:
@@ -175,26 +336,100 @@ def cost_per_step(quick: bool = False) -> dict:
     return {"rows": rows, "slope": float(np.polyfit(n, t, 1)[0])}
 
 
+def energy_drift(step: float, duration: float = 1.0) -> dict:
+    """A 1 m rod (E = 1e5 Pa, EI and EA) bent into half a sine wave of 5 cm and released without
+    gravity, damping or contact: the largest relative change of its total energy over `duration`
+    s at the RK4 step `step` (s, one substep per MuJoCo step)."""
+    config = dict(length=1.0, control_points=25, young_modulus=1e5, damping=0, substeps=1, self_collision=0,
+                  shape="line", direction=[1, 0, 0])
+    model, data, gut = _compile(config, step, gravity=(0, 0, 0))
+    positions = gut.positions(data)
+    positions[:, 2] = 0.05 * np.sin(np.pi * positions[:, 0])
+    start_energy = sum(gut.energy(data).values())
+    worst, steps = 0.0, int(round(duration / step))
+    start = time.perf_counter()
+    for i in range(steps):
+        mujoco.mj_step(model, data)
+        if i % max(1, steps // 50) == 0 or i == steps - 1:
+            worst = max(worst, abs(sum(gut.energy(data).values()) / start_energy - 1.0))
+    return {"step_s": step, "relative_energy_drift": worst, "diverged": gut.divergence_count(data) > 0,
+            "wall_s_per_sim_s": (time.perf_counter() - start) / duration}
+
+
+def energy_drift_order(quick: bool = False) -> dict:
+    """Energy drift at halving steps and the observed order. RK4 loses (omega h)^6 / 72 of an
+    oscillation's energy per step, so over a fixed time its drift is O(h^5), one order better
+    than its phase error."""
+    steps = (4e-4, 2e-4, 1e-4) if quick else (8e-4, 4e-4, 2e-4, 1e-4)
+    rows = [energy_drift(h) for h in tqdm(steps, desc="energy drift", leave=False)]
+    a, b = rows[-2], rows[-1]
+    order = float(np.log(a["relative_energy_drift"] / b["relative_energy_drift"]) / np.log(a["step_s"] / b["step_s"]))
+    return {"integrator": "rk4", "rows": rows, "order_in_dt": order}
+
+
+def length_preservation() -> dict:
+    """The default 4 m intestine (the paper's springs) hanging from one end, at rest: its
+    relative stretch with the global length term (default 200 N/m) and without it."""
+    out = {}
+    for label, global_stiffness in (("with_global_stretch", 200.0), ("without_global_stretch", 0.0)):
+        config = dict(length=4.0, control_points=50, damping=5, substeps=2, self_collision=0, shape="line",
+                      direction=[0, 0, -1], pinned=[0], global_stretch_stiffness=global_stiffness)
+        data, gut, cost = _relax(config, 6.0, 0.001)
+        out[label] = {"relative_stretch": gut.length(data) / 4.0 - 1.0, "global_stretch_stiffness": global_stiffness,
+                      "wall_s_per_sim_s": cost}
+    return out
+
+
 CASES = {"catenary": (catenary, (25, 50, 100, 200)),
          "hanging_rod": (hanging_rod, (10, 20, 40, 80)),
-         "cantilever": (cantilever, (8, 16, 32, 48))}
+         "cantilever": (cantilever, (8, 16, 32, 48)),
+         "tip_load": (functools.partial(tip_load, alpha=0.03), (8, 16, 32)),
+         "elastica_alpha_1": (functools.partial(tip_load, alpha=1.0), (8, 16, 32)),
+         "elastica_alpha_2": (functools.partial(tip_load, alpha=2.0), (8, 16, 32)),
+         "elastica_alpha_5": (functools.partial(tip_load, alpha=5.0), (8, 16, 32)),
+         "elastica_alpha_10": (functools.partial(tip_load, alpha=10.0), (8, 16, 32)),
+         "vibration_mode_1": (functools.partial(vibration, mode=1), (8, 16, 32)),
+         "vibration_mode_2": (functools.partial(vibration, mode=2), (8, 16, 32)),
+         "resting_penetration": (resting_penetration, (20, 40, 80)),
+         "pile_overlap": (pile_overlap, (125, 250)),
+         }
 
 
-def run(quick: bool = False, quiet: bool = False) -> dict:
-    jobs = [(name, n) for name, (_, sizes) in CASES.items() for n in (sizes[:2] if quick else sizes)]
+def run(quick: bool = False, quiet: bool = False, peers: bool = True) -> tuple[dict, dict]:
+    """Every case at its resolutions (two with `quick`), and the available peers on the same
+    cases (their smallest resolution with `quick`). Returns (ours, peers): per case, rows of
+    value, reference, relative error and wall s per sim s; peers per case and peer."""
+    from viscera import peers as peer_module
+    jobs = [("viscera", name, n) for name, (_, sizes) in CASES.items() for n in (sizes[:2] if quick else sizes)]
+    if peers:
+        for peer in peer_module.PEERS:
+            if not peer_module.available(peer):
+                continue
+            for name in CASES:
+                sizes = peer_module.RESOLUTIONS.get(name, ())
+                jobs += [(peer, name, n) for n in (sizes[:1] if quick else sizes)]
     results: dict = {name: [] for name in CASES}
-    for name, n in tqdm(jobs, desc="validation", disable=quiet):
-        row = CASES[name][0](n)
-        row["control_points"] = n
-        row["relative_error"] = abs(row["value"] - row["reference"]) / abs(row["reference"])
-        results[name].append(row)
+    peer_results: dict = {name: {} for name in CASES}
+    for who, name, n in tqdm(jobs, desc="validation", disable=quiet):
+        if who == "viscera":
+            row = CASES[name][0](n)
+            row["control_points"] = n
+        else:
+            row = peer_module.run_peer(who, name, n)
+            if "unsupported" in row:
+                peer_results[name][who] = row
+                continue
+            peer_results[name].setdefault(who, [])
+        scale = 1.0 if row.pop("absolute_error", False) else abs(row["reference"])
+        row["relative_error"] = abs(row["value"] - row["reference"]) / scale
+        (results[name] if who == "viscera" else peer_results[name][who]).append(row)
     for name, rows in results.items():
         if len(rows) >= 2:  # observed order: slope of log error against log n, last two resolutions
             a, b = rows[-2], rows[-1]
             if a["relative_error"] > 0 and b["relative_error"] > 0:
                 rows[-1]["order_in_control_points"] = float(
                     -np.log(b["relative_error"] / a["relative_error"]) / np.log(b["control_points"] / a["control_points"]))
-    return results
+    return results, peer_results
 
 
 def plot_maps(stability: dict, cost: dict, folder: pathlib.Path) -> list[pathlib.Path]:
@@ -234,24 +469,43 @@ def plot_maps(stability: dict, cost: dict, folder: pathlib.Path) -> list[pathlib
     return [stability_path, cost_path]
 
 
-def plot(results: dict, folder: pathlib.Path) -> list[pathlib.Path]:
+PEER_STYLE = {"mujoco_flexcomp": "s--", "mujoco_cable": "^--", "pyelastica": "D--"}
+
+
+def plot(results: dict, peer_results: dict, folder: pathlib.Path) -> list[pathlib.Path]:
+    """One Pareto chart per case: relative error against wall s per sim s, ours at each
+    resolution and the peers at theirs."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     paths = []
     for name, rows in results.items():
-        fig, ax = plt.subplots(figsize=(5, 3.6))
+        if not rows:
+            continue
+        fig, ax = plt.subplots(figsize=(5.2, 3.8))
         x = [r["wall_s_per_sim_s"] for r in rows]
-        y = [max(r["relative_error"], 1e-12) for r in rows]
-        ax.loglog(x, y, "o-", label="viscera (RK4)")
-        for r in rows:
-            ax.annotate(f"n={r['control_points']}", (r["wall_s_per_sim_s"], max(r["relative_error"], 1e-12)),
-                        textcoords="offset points", xytext=(4, 4), fontsize=8)
+        y = [max(r["relative_error"], 1e-9) for r in rows]
+        ax.loglog(x, y, "o-", label="viscera (RK4), n control points")
+        for r, xi, yi in zip(rows, x, y):
+            ax.annotate(f"{r['control_points']}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        unsupported = []
+        for peer, peer_rows in peer_results.get(name, {}).items():
+            if isinstance(peer_rows, dict):
+                unsupported.append(peer)
+                continue
+            px = [r["wall_s_per_sim_s"] for r in peer_rows]
+            py = [max(r["relative_error"], 1e-9) for r in peer_rows]
+            ax.loglog(px, py, PEER_STYLE.get(peer, "x--"), label=f"{peer}, segments")
+            for r, xi, yi in zip(peer_rows, px, py):
+                ax.annotate(f"{r['segments']}", (xi, yi), textcoords="offset points", xytext=(4, -9), fontsize=7)
         ax.set_xlabel("wall seconds per simulated second")
-        ax.set_ylabel("relative error")
-        ax.set_title(name.replace("_", " "))
+        ax.set_ylabel("relative error" if name != "pile_overlap" else "overlap / diameter")
+        title = name.replace("_", " ")
+        if unsupported:
+            title += "\n(cannot express it: " + ", ".join(unsupported) + ")"
+        ax.set_title(title, fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7)
         fig.tight_layout()
         path = folder / f"pareto_{name}.png"
         fig.savefig(path, dpi=110)
@@ -260,31 +514,49 @@ def plot(results: dict, folder: pathlib.Path) -> list[pathlib.Path]:
     return paths
 
 
-def report(results: dict) -> str:
-    lines = [f"{'case':<13}{'n':>5}{'value':>13}{'reference':>13}{'rel. error':>12}{'wall s/sim s':>14}{'order':>7}"]
+def report(results: dict, peer_results: dict | None = None) -> str:
+    lines = [f"{'case':<20}{'model':<17}{'n':>5}{'value':>13}{'reference':>13}{'rel. error':>12}{'wall s/sim s':>14}"
+             f"{'order':>7}"]
     for name, rows in results.items():
         for r in rows:
             order = f"{r['order_in_control_points']:.2f}" if "order_in_control_points" in r else ""
-            lines.append(f"{name:<13}{r['control_points']:>5}{r['value']:>13.6g}{r['reference']:>13.6g}"
+            lines.append(f"{name:<20}{'viscera':<17}{r['control_points']:>5}{r['value']:>13.6g}{r['reference']:>13.6g}"
                          f"{r['relative_error']:>12.2e}{r['wall_s_per_sim_s']:>14.4f}{order:>7}")
+        for peer, peer_rows in (peer_results or {}).get(name, {}).items():
+            if isinstance(peer_rows, dict):
+                lines.append(f"{name:<20}{peer:<17}  cannot express it: {peer_rows['unsupported']}")
+                continue
+            for r in peer_rows:
+                lines.append(f"{name:<20}{peer:<17}{r['segments']:>5}{r['value']:>13.6g}{r['reference']:>13.6g}"
+                             f"{r['relative_error']:>12.2e}{r['wall_s_per_sim_s']:>14.4f}"
+                             f"   (step {r['timestep_s'] * 1e3:.3g} ms)")
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.validate", description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="two resolutions per case")
+    parser.add_argument("--quick", action="store_true", help="two resolutions per case, peers at one")
+    parser.add_argument("--no-peers", action="store_true", help="our model only")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs") / "validation")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
-    results = run(args.quick, args.quiet)
+    results, peer_results = run(args.quick, args.quiet, peers=not args.no_peers)
+    drift = energy_drift_order(args.quick)
+    lengths = length_preservation()
     stability = stability_map(args.quick)
     cost = cost_per_step(args.quick)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "results.json").write_text(json.dumps(
-        {"cases": results, "stability_map": stability, "cost_per_step": cost}, indent=2))
-    plot(results, args.out)
+        {"cases": results, "peers": peer_results, "energy_drift": drift, "length_preservation": lengths,
+         "stability_map": stability, "cost_per_step": cost}, indent=2))
+    plot(results, peer_results, args.out)
     plot_maps(stability, cost, args.out)
-    print(report(results))
+    print(report(results, peer_results))
+    print("energy drift over 1 s (RK4, no damping): " + ", ".join(
+        f"{r['step_s'] * 1e3:.2g} ms: {r['relative_energy_drift']:.2e}" for r in drift["rows"])
+        + f"; order in dt {drift['order_in_dt']:.2f}")
+    print("hanging 4 m intestine, relative stretch: " + ", ".join(
+        f"{k.replace('_', ' ')}: {v['relative_stretch']:.4f}" for k, v in lengths.items()))
     for key, label in (("against_stretch_stiffness", "stretch_stiffness"), ("against_control_points", "control_points")):
         print("RK4 largest stable substep vs " + label + ": " + ", ".join(
             f"{r[label]}: {r['largest_step_s'] * 1e3:.3g} ms ({r['failure']})" for r in stability[key]))
