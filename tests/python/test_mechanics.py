@@ -150,3 +150,33 @@ def test_mesentery_holds_the_bowel_within_its_reach():
 def test_mesentery_needs_its_root():
     with pytest.raises(ValueError, match="mesentery_root"):
         compile_scene(mesentery_stiffness=10.0)
+
+
+def test_clamped_ends_hold_place_and_direction():
+    """clamped="both": with the paper's springs (no EI) the two end control points at each end are
+    pinned. With a bending rigidity only the end one is (its neighbour moves) and the clamp term
+    holds the end tangent: at rest the end slope is a small fraction of the beam's largest slope,
+    and it falls at second order with the spacing."""
+    model, data, gut = compile_scene(length=1.0, control_points=12, damping=5, self_collision=0, shape="line",
+                                     clamped="both")
+    q0 = gut.positions(data).copy()
+    while data.time < 1.0:
+        mujoco.mj_step(model, data)
+    q = gut.positions(data)
+    np.testing.assert_array_equal(q[[0, 1, -2, -1]], q0[[0, 1, -2, -1]])
+    assert q[5, 2] < -1e-3  # the middle sags
+    end_slopes = []
+    for n in (12, 24):
+        model, data, gut = compile_scene(length=1.0, control_points=n, damping=20, self_collision=0, shape="line",
+                                         clamped="both", young_modulus=1e7, substeps=8 * (n // 12) ** 2)
+        q0 = gut.positions(data).copy()
+        while data.time < 2.0:
+            mujoco.mj_step(model, data)
+        q = gut.positions(data)
+        np.testing.assert_array_equal(q[[0, -1]], q0[[0, -1]])
+        assert q[1, 2] < -1e-6  # the neighbour is free and moves
+        points = gut.axis_points(data, 2001)
+        slope = np.diff(points[:, 2]) / np.diff(points[:, 0])
+        assert abs(slope[0]) < 0.25 * np.abs(slope).max()
+        end_slopes.append(abs(slope[0]))
+    assert end_slopes[1] < 0.35 * end_slopes[0]
