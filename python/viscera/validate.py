@@ -399,9 +399,9 @@ def run(quick: bool = False, quiet: bool = False, peers: bool = True) -> tuple[d
     """Every case at its resolutions (two with `quick`), and the available peers on the same
     cases (their smallest resolution with `quick`). Returns (ours, peers): per case, rows of
     value, reference, relative error and wall s per sim s; peers per case and peer."""
-    from viscera import peers as peer_module
     jobs = [("viscera", name, n) for name, (_, sizes) in CASES.items() for n in (sizes[:2] if quick else sizes)]
     if peers:
+        from viscera import peers as peer_module
         for peer in peer_module.PEERS:
             if not peer_module.available(peer):
                 continue
