@@ -100,3 +100,16 @@ def test_rk4_stability_limit_and_how_it_fails():
     stiff, _ = validate.largest_stable_step(dict(length=4, damping=0, self_collision=0, shape="line",
                                                  control_points=250, stretch_stiffness=1000))
     assert stiff / step == pytest.approx(np.sqrt(10 / 1000), rel=0.35)  # h_max ~ 1 / sqrt(k)
+
+
+def test_peers_run_the_same_cases_and_say_what_they_cannot_express():
+    """MuJoCo's cable and flexcomp on the same cases, at their own largest stable steps: the
+    cable's catenary is an inextensible chain (within 0.5 %), the flexcomp's edge springs carry the
+    hanging rod's EA exactly, and the cable, being inextensible, declines the hanging rod."""
+    from viscera import peers
+    cable = peers.run_peer("mujoco_cable", "catenary", 25)
+    assert cable["value"] == pytest.approx(cable["reference"], rel=5e-3)
+    assert cable["timestep_s"] > 1e-3
+    flex = peers.run_peer("mujoco_flexcomp", "hanging_rod", 10)
+    assert flex["value"] == pytest.approx(flex["reference"], rel=1e-3)
+    assert "inextensible" in peers.run_peer("mujoco_cable", "hanging_rod", 10)["unsupported"]
