@@ -52,7 +52,7 @@ static const char* raw(reader* r, const char* key) {
 // finite number, -2 if there are more than `capacity`.
 static int parse_numbers(const char* text, double* out, int capacity) {
   int count = 0;
-  const char* p = text ? text : "";
+  const char* p = text;
   for (;;) {
     while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') ++p;
     if (!*p) return count;
@@ -398,7 +398,7 @@ int vsc_plugin_config_clamp(vsc_plugin_config* c, const double* q, char* error, 
     for (int i = 0; i < 3; ++i) norm += direction[end][i] * direction[end][i];
     if (!(norm > 1e-24)) {
       snprintf(error, (size_t)error_size, "viscera.intestine: attribute 'clamped' = '%s': the initial shape has no "
-               "tangent at that end (its two end control points coincide)", end ? "end" : "start");
+               "tangent at that end (the spline's end tangent, from its first three control points, is zero)", end ? "end" : "start");
       return -1;
     }
   }
