@@ -17,7 +17,7 @@ const char* const vsc_plugin_attributes[] = {
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
     "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
     "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
-    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped"};
+    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped", "divergence_retries"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -277,6 +277,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   reader r = {m, instance, error, error_size};
   memset(c, 0, sizeof(*c));
   c->rod = vsc_default_rod_def();
+  c->step = vsc_default_step_options();
   vsc_rod_def* d = &c->rod;
   int failed =
       read_positive(&r, "length", d->length, &d->length, "m") ||
@@ -334,7 +335,8 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
       read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
       read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
-      read_count(&r, "substeps", 2, 1, 10000, &c->substeps) ||
+      read_count(&r, "substeps", 2, 1, 10000, &c->step.substeps) ||
+      read_count(&r, "divergence_retries", 4, 0, 10, &c->step.retries) ||
       read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
                  VSC_MAX_COLLISION_SPHERES, &d->collision_sphere_count);
   if (failed) return -1;
@@ -369,9 +371,15 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
     return fail(&r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(&r, "young_modulus"));
   const char* integrator = raw(&r, "integrator");
-  if (integrator && strcmp(integrator, "rk4") != 0)
-    return fail(&r, "attribute 'integrator' = '%s' must be rk4", integrator);
-  c->integrator = VSC_INTEGRATOR_RK4;
+  static const char* const integrator_names[3] = {"rk4", "symplectic_euler", "implicit"};
+  static const vsc_integrator integrators[3] = {VSC_INTEGRATOR_RK4, VSC_INTEGRATOR_SYMPLECTIC_EULER,
+                                                VSC_INTEGRATOR_IMPLICIT};
+  int chosen = integrator ? -1 : 0;
+  for (int i = 0; integrator && i < 3; ++i)
+    if (strcmp(integrator, integrator_names[i]) == 0) chosen = i;
+  if (chosen < 0)
+    return fail(&r, "attribute 'integrator' = '%s' must be rk4, symplectic_euler or implicit", integrator);
+  c->step.integrator = integrators[chosen];
   const char* clamped = raw(&r, "clamped");
   static const char* const clamp_names[4] = {"none", "start", "end", "both"};
   int clamp = clamped ? -1 : 0;

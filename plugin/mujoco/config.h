@@ -40,8 +40,7 @@ typedef struct vsc_grasper_config {
 /// Everything an instance's config defines. Owns `pinned` and `points`.
 typedef struct vsc_plugin_config {
   vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
-  int substeps;               ///< RK4 substeps per MuJoCo step (>= 1)
-  vsc_integrator integrator;  ///< only rk4 for now
+  vsc_step_options step;      ///< integrator, substeps per MuJoCo step, divergence retries
   double radius_min;          ///< skin radius between control points (m)
   double radius_max;          ///< skin radius at control points (m)
   double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]

@@ -195,9 +195,9 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
 #define GRASP_STATE_SIZE 6
 enum { GRASP_OPEN = 0, GRASP_HOLDING = 1, GRASP_CLOSED_EMPTY = 2 };
 
-// plugin_state layout (see intestine.h): positions, velocities, divergence
-// count, the wrench on every body, the friction state of every sphere.
-static int wrench_address(int n) { return 6 * n + 1; }
+// plugin_state layout (see intestine.h): positions, velocities, divergence and
+// recovery counts, the wrench on every body, the friction state of every sphere.
+static int wrench_address(int n) { return 6 * n + 2; }
 static int stick_address(const mjModel* m, int n) { return wrench_address(n) + 6 * (int)m->nbody; }
 static int grasp_address(const mjModel* m, const vsc_plugin_config* c) {
   return stick_address(m, c->rod.control_count) + VSC_STICK_SIZE * c->rod.collision_sphere_count;
@@ -513,8 +513,10 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (!all_finite(state, m->plugin_statenum[instance])) {  // e.g. a bad mj_setState: start over
     mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
     double count = isfinite(state[6 * n]) ? state[6 * n] : 0.0;
+    double recovered = isfinite(state[6 * n + 1]) ? state[6 * n + 1] : 0.0;
     write_initial_state(m, &it->config, it->initial_q, state);
     state[6 * n] = count + 1.0;
+    state[6 * n + 1] = recovered;
     return;
   }
   sanitize_stick(state + stick_address(m, n), it->config.rod.collision_sphere_count, it->geom_count);
@@ -534,8 +536,9 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   mjtNum* grasp_state = state + grasp_address(m, &it->config);
   world.grasps = it->grasps;
   world.grasp_count = update_grasps(m, d, it, state, grasp_state);
+  vsc_step_report report = {0, 0};
   vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, state + stick_address(m, n),
-                                   m->opt.timestep, it->config.substeps);
+                                   m->opt.timestep, &it->config.step, &report);
   // the step's average reaction per body, as force and torque about its centre of mass
   mjtNum* wrench = state + wrench_address(n);
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
@@ -548,12 +551,19 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     add_wrench(wrench + 6 * body, w, w + 3, arm);
   }
   release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
+  // warn at counts 1, 2, 4, 8...: no spam
   if (status == VSC_ERROR_DIVERGED) {
     double count = state[6 * n] += 1.0;
-    if (count == ldexp(1.0, ilogb(count)))  // warn at counts 1, 2, 4, 8...: no spam
-      mju_warning("viscera.intestine: state diverged at t = %g s and was restored; lower the timestep, "
-                  "raise 'substeps' or soften 'stretch_stiffness'/'contact_stiffness' (%g times so far)",
-                  d->time, count);
+    if (count == ldexp(1.0, ilogb(count)))
+      mju_warning("viscera.intestine: state diverged at t = %g s even at %d substeps; positions restored, "
+                  "velocities zeroed. Use integrator 'implicit', lower the timestep, raise 'substeps' or soften "
+                  "'stretch_stiffness'/'contact_stiffness' (%g times so far)", d->time, report.substeps, count);
+  } else if (report.retries > 0) {
+    double count = state[6 * n + 1] += 1.0;
+    if (count == ldexp(1.0, ilogb(count)))
+      mju_warning("viscera.intestine: state diverged at t = %g s and held at %d substeps instead of %d; "
+                  "raise 'substeps' or use integrator 'implicit' (%g recoveries so far)", d->time,
+                  report.substeps, it->config.step.substeps, count);
   }
 }
 

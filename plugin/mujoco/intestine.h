@@ -4,8 +4,11 @@
 // B = m->nbody; mjtNums):
 //   [0, 3n)        control point positions, x y z per point (m, world frame)
 //   [3n, 6n)       control point velocities (m/s)
-//   [6n]           divergence count: steps whose state became non-finite or
-//                  faster than 1e4 m/s and was restored (reset writes 0)
+//   [6n]           divergence count: steps that diverged (non-finite, faster than
+//                  100 m/s, or an energy jump; see vsc_integrate.h) at every
+//                  retry, whose positions were restored and velocities zeroed
+//   [6n + 1]       recovery count: steps that diverged but held when retried
+//                  with more substeps (both counts: reset writes 0)
 //   6B numbers     per body, the reaction of the intestine over the last step:
 //                  force (N), torque about the body's centre of mass (N m), world
 //   8S numbers     per sphere, friction state (see vsc_contact.h)

@@ -3,8 +3,10 @@
 State layout of one ``viscera.intestine`` instance in ``data.plugin_state``
 (n control points, S collision spheres, B = model.nbody): positions ``[0, 3n)``
 (m, world frame, x y z per point), velocities ``[3n, 6n)`` (m/s), the
-divergence count ``[6n]``, then for every body the wrench the intestine
-exerted on it over the last step ``[6n+1, 6n+1+6B)`` (force N, torque N m about
+divergence count ``[6n]`` (steps that diverged at every retry: positions
+restored, velocities zeroed), the recovery count ``[6n+1]`` (steps that
+diverged and held when retried with more substeps), then for every body the
+wrench the intestine exerted on it over the last step ``[6n+2, 6n+2+6B)`` (force N, torque N m about
 the body's centre of mass, world frame), then the friction state of every
 sphere (8 each: rigid partner, elongation m x3, self partner, elongation m x3),
 then for every grasper named in ``grasp_sites`` its hold (6 each: status 0 open,
@@ -112,7 +114,7 @@ class Intestine:
         body_id = body if isinstance(body, (int, np.integer)) else self.model.body(body).id
         if not 0 <= body_id < self.model.nbody:
             raise IndexError(f"body {body!r} is not a body of the model (0 to {self.model.nbody - 1})")
-        start = 6 * self.control_count + 1 + 6 * int(body_id)
+        start = 6 * self.control_count + 2 + 6 * int(body_id)
         return self._state(data)[start:start + 6].copy()
 
     @property
@@ -122,7 +124,7 @@ class Intestine:
 
     def grasps(self, data: mujoco.MjData) -> list[Grasp]:
         """The hold of every grasper (in grasp_sites order)."""
-        start = 6 * self.control_count + 1 + 6 * self.model.nbody + 8 * self.sphere_count
+        start = 6 * self.control_count + 2 + 6 * self.model.nbody + 8 * self.sphere_count
         state = self._state(data)
         out = []
         for i, site in enumerate(self.graspers):
@@ -149,8 +151,14 @@ class Intestine:
         return {"elastic": float(out[0]), "gravity": float(out[1]), "kinetic": float(out[2])}
 
     def divergence_count(self, data: mujoco.MjData) -> int:
-        """Number of steps whose state diverged and was restored since the last reset."""
+        """Steps since the last reset that diverged even at the most retried substeps: their
+        positions were restored to the step start and their velocities zeroed."""
         return int(self._state(data)[6 * self.control_count])
+
+    def recovery_count(self, data: mujoco.MjData) -> int:
+        """Steps since the last reset that diverged at the configured substeps and held when
+        retried with more (up to 2**divergence_retries times as many)."""
+        return int(self._state(data)[6 * self.control_count + 1])
 
     def axis_points(self, data: mujoco.MjData, count: int = 1000) -> np.ndarray:
         """`count` points of the axis, uniform in parametric abscissa (m, shape (count, 3))."""

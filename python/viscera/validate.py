@@ -229,11 +229,13 @@ def pile_overlap(n: int) -> dict:
             "absolute_error": True, "top_m": float(x[:, 2].max())}
 
 
-def _stable(config: dict, step: float, seconds: float = 0.2) -> str:
-    """'stable', or how a released, 2 %-stretched straight rod fails at this RK4 substep (s):
-    'diverged' (the guard caught NaN or runaway speed) or 'stretch runaway' (length off by 50 %)."""
+def _stable(config: dict, step: float, seconds: float = 0.2, integrator: str = "rk4") -> str:
+    """'stable', or how a released, 2 %-stretched straight rod fails at this substep (s) of
+    `integrator`, with no retries: 'diverged' (the guard caught NaN, runaway speed or an energy
+    jump) or 'stretch runaway' (length off by 50 %)."""
     xml = (f'<mujoco><option timestep="{step}" gravity="0 0 0"/>'
-           f'{viscera.extension_xml("rod", **config, substeps=1)}<worldbody/></mujoco>')
+           f'{viscera.extension_xml("rod", **config, substeps=1, integrator=integrator, divergence_retries=0)}'
+           '<worldbody/></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     gut = viscera.intestine(model)
@@ -247,15 +249,16 @@ def _stable(config: dict, step: float, seconds: float = 0.2) -> str:
     return "stable"
 
 
-def largest_stable_step(config: dict) -> tuple[float, str]:
-    """Bisection (in log) of the largest stable RK4 substep (s), and how the next step up fails."""
+def largest_stable_step(config: dict, integrator: str = "rk4") -> tuple[float, str]:
+    """Bisection (in log) of the largest stable substep (s) of `integrator`, and how the next
+    step up fails."""
     low, high = 1e-6, 2e-2
-    failure = _stable(config, high)
+    failure = _stable(config, high, integrator=integrator)
     if failure == "stable":
         return high, "stable at 20 ms"
     for _ in range(14):
         middle = np.sqrt(low * high)
-        outcome = _stable(config, middle)
+        outcome = _stable(config, middle, integrator=integrator)
         if outcome == "stable":
             low = middle
         else:

@@ -31,7 +31,9 @@ BAD = [
     ({"control_points": "12.5"}, ["control_points", "12.5"]),
     ({"substeps": "0"}, ["substeps", "0"]),
     ({"collision_spheres": "1"}, ["collision_spheres", "1"]),
-    ({"integrator": "euler"}, ["integrator", "euler"]),
+    ({"integrator": "euler"}, ["integrator", "euler", "symplectic_euler", "implicit"]),
+    ({"divergence_retries": "11"}, ["divergence_retries", "11"]),
+    ({"divergence_retries": "-1"}, ["divergence_retries", "-1"]),
     ({"pinned": "0 250"}, ["pinned", "250"]),
     ({"pinned": "-1"}, ["pinned", "-1"]),
     ({"pinned": "a"}, ["pinned", "a"]),
@@ -97,7 +99,7 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
     assert gut.sphere_count == 321  # 4 m / 12.5 mm + 1: spaced one radius apart
     # positions, velocities, divergence count, a wrench per body, friction state per sphere
-    assert model.plugin_statenum[0] == 6 * 250 + 1 + 6 * model.nbody + 8 * 321
+    assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321
 
 
 def test_state_size_mismatch_fails_data_creation_instead_of_overflowing():

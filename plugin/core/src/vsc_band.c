@@ -1,6 +1,9 @@
 // Band LDL^T factorisation and solves (layout in vsc_band.h).
 #include "viscera/vsc_band.h"
 
+#include <math.h>
+#include <stddef.h>
+
 #define A(i, j) band[VSC_BAND_WIDTH * (i) + 3 + (j) - (i)]
 
 vsc_status vsc_band_factor(double* band, int n) {
@@ -59,5 +62,53 @@ void vsc_band_multiply3(const double* band, int n, const double* x, double* y) {
         if (j != i) y[3 * j + c] += a * x[3 * i + c];
       }
     }
+  }
+}
+
+#define W(i, j) band[(size_t)(w + 1) * (size_t)(i) + (size_t)(w + (j) - (i))]
+
+vsc_status vsc_band_wide_factor(double* band, int size, int w, double* ld) {
+  for (int i = 0; i < size; ++i) {
+    int j0 = i - w < 0 ? 0 : i - w;
+    // ld[k - j0] = L(i, k) D(k) as it is found, so each entry costs one dot product
+    for (int j = j0; j < i; ++j) {
+      double sum = W(i, j);
+      int k0 = j - w > j0 ? j - w : j0;
+      for (int k = k0; k < j; ++k) sum -= ld[k - j0] * W(j, k);
+      ld[j - j0] = sum;
+      W(i, j) = sum * W(j, j);
+    }
+    double pivot = W(i, i);
+    for (int k = j0; k < i; ++k) pivot -= ld[k - j0] * W(i, k);
+    if (!(pivot > 0.0) || !isfinite(pivot)) return VSC_ERROR_NOT_POSITIVE_DEFINITE;
+    W(i, i) = 1.0 / pivot;
+  }
+  return VSC_OK;
+}
+
+void vsc_band_wide_solve(const double* band, int size, int w, double* x) {
+  for (int i = 0; i < size; ++i) {  // L z = b
+    int j0 = i - w < 0 ? 0 : i - w;
+    double sum = x[i];
+    for (int j = j0; j < i; ++j) sum -= W(i, j) * x[j];
+    x[i] = sum;
+  }
+  for (int i = 0; i < size; ++i) x[i] *= W(i, i);
+  for (int i = size - 1; i >= 0; --i) {  // L^T x = y, column by column
+    double xi = x[i];
+    int j0 = i - w < 0 ? 0 : i - w;
+    for (int j = j0; j < i; ++j) x[j] -= W(i, j) * xi;
+  }
+}
+
+void vsc_band_wide_multiply(const double* band, int size, int w, const double* x, double* y) {
+  for (int i = 0; i < size; ++i) y[i] = 0.0;
+  for (int i = 0; i < size; ++i) {
+    int j0 = i - w < 0 ? 0 : i - w;
+    for (int j = j0; j < i; ++j) {
+      y[i] += W(i, j) * x[j];
+      y[j] += W(i, j) * x[i];
+    }
+    y[i] += W(i, i) * x[i];
   }
 }

@@ -483,6 +483,13 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
   return p.contacts;
 }
 
+int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]) {
+  const double* touch = rod->touch + VSC_TOUCH_SIZE * sphere + RIGID;
+  if (!rod->touched || touch[T_PARTNER] < 0.0 || !(touch[T_NORMAL_FORCE] > 0.0)) return -1;
+  for (int a = 0; a < 3; ++a) normal[a] = touch[T_NORMAL + a];
+  return (int)touch[T_PARTNER];
+}
+
 // One friction slot: follow the partner of the last evaluation, advance the
 // elongation by v_t h in the tangent plane, clamp it at the slip limit.
 static void update_slot(double* slot, const double* touch, double k, double h) {

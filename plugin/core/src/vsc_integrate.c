@@ -1,21 +1,28 @@
-// RK4 on the first-order system (q, v)' = (v, a(q, v)).
+// RK4, symplectic Euler and linearly implicit Euler on (q, v)' = (v, a(q, v)),
+// and the step driver that detects divergence and retries (see vsc_integrate.h).
 #include "viscera/vsc_integrate.h"
-
-#include "viscera/vsc_contact.h"
-#include "viscera/vsc_grasp.h"
 
 #include <math.h>
 #include <string.h>
 
+#include "viscera/vsc_band.h"
+#include "viscera/vsc_contact.h"
+#include "viscera/vsc_grasp.h"
+#include "viscera/vsc_jacobian.h"
+
+vsc_step_options vsc_default_step_options(void) {
+  vsc_step_options options = {VSC_INTEGRATOR_RK4, 1, 4, 1.0, 3.0};
+  return options;
+}
+
 static int state_is_sane(const double* q, const double* v, int size) {
-  double limit = VSC_DIVERGED_SPEED;
   for (int i = 0; i < size; ++i)
-    if (!isfinite(q[i]) || !(fabs(v[i]) < limit)) return 0;
+    if (!isfinite(q[i]) || !(fabs(v[i]) < VSC_DIVERGED_SPEED)) return 0;
   return 1;
 }
 
-// `world` is this evaluation's copy; its wrench weight is set per stage so the
-// stages' reactions add up to their average over the whole step dt.
+// `world` is this step's copy; its wrench weight is set per evaluation so the
+// reactions of all evaluations add up to their average over the whole step dt.
 static vsc_status rk4_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h, double dt) {
   double weight = h / (6.0 * dt);
   int size = 3 * rod->n;
@@ -59,36 +66,190 @@ static vsc_status rk4_substep(vsc_rod* rod, vsc_world* world, double* q, double*
     q[i] = q0[i] + sixth * (dq[i] + vs[i]);
     v[i] = v0[i] + sixth * (dv[i] + a[i]);
   }
-  if (state_is_sane(q, v, size)) return VSC_OK;
-  memcpy(q, q0, sizeof(double) * size);
-  memset(v, 0, sizeof(double) * size);
-  if (!state_is_sane(q, v, size)) memset(q, 0, sizeof(double) * size);
-  return VSC_ERROR_DIVERGED;
+  return VSC_OK;
+}
+
+static vsc_status symplectic_euler_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h,
+                                           double dt) {
+  int size = 3 * rod->n;
+  double* a = rod->stage;
+  world->wrench_weight = h / dt;
+  vsc_rod_acceleration(rod, world, q, v, a);
+  for (int i = 0; i < size; ++i) {
+    v[i] += h * a[i];
+    q[i] += h * v[i];
+  }
+  return VSC_OK;
+}
+
+// Reactions of the linearised forces: the force evaluation at the substep start
+// wrote those at (q0, v0); add the change the linearisation predicts at (q1, v1),
+// so the geoms and anchors receive the impulse the rod's solve used.
+static void correct_reactions(vsc_rod* rod, const vsc_world* world, const double* dq, const double* dv) {
+  double weight = world->wrench_weight;
+  for (int g = 0; g < world->grasp_count; ++g) {
+    vsc_grasp* grasp = &world->grasps[g];
+    vsc_basis b = vsc_spline_basis(rod->n, grasp->abscissa);
+    double moved[3], accelerated[3];
+    vsc_basis_point(&b, dq, moved);
+    vsc_basis_point(&b, dv, accelerated);
+    for (int c = 0; c < 3; ++c)  // the rod's force changed by -k dP - c dV; the anchor's opposite
+      grasp->reaction[c] += weight * (grasp->stiffness * moved[c] + grasp->damping * accelerated[c]);
+  }
+  if (!world->geom_wrench) return;
+  double normal[3], k = rod->def.contact_stiffness, c = rod->def.contact_damping, r = rod->def.radius;
+  for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0; ++i) {
+    int geom = vsc_rod_rigid_touch(rod, i, normal);
+    if (geom < 0) continue;
+    const vsc_basis* b = &rod->sphere_basis[i];
+    double moved[3], accelerated[3];
+    vsc_basis_point(b, dq, moved);
+    vsc_basis_point(b, dv, accelerated);
+    double change = -(k * (moved[0] * normal[0] + moved[1] * normal[1] + moved[2] * normal[2]) +
+                      c * (accelerated[0] * normal[0] + accelerated[1] * normal[1] + accelerated[2] * normal[2]));
+    double f[3] = {change * normal[0], change * normal[1], change * normal[2]};  // on the sphere
+    const double* x = rod->sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
+    const double* p = world->geoms[geom].position;
+    double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
+    double* out = world->geom_wrench + 6 * geom;
+    out[0] -= weight * f[0];
+    out[1] -= weight * f[1];
+    out[2] -= weight * f[2];
+    out[3] -= weight * (arm[1] * f[2] - arm[2] * f[1]);
+    out[4] -= weight * (arm[2] * f[0] - arm[0] * f[2]);
+    out[5] -= weight * (arm[0] * f[1] - arm[1] * f[0]);
+  }
+}
+
+static vsc_status implicit_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h, double dt) {
+  int size = 3 * rod->n, w = rod->jacobian_half_width;
+  double* q0 = rod->stage;
+  double* v0 = q0 + size;
+  double* rhs = v0 + size;       // generalised forces, then the right-hand side
+  double* spread = rhs + size;   // A^-1 g for the rank-one global term
+  double* gradient = spread + size;
+  memcpy(q0, q, sizeof(double) * size);
+  memcpy(v0, v, sizeof(double) * size);
+  world->wrench_weight = h / dt;
+  vsc_rod_forces(rod, world, q0, v0, rhs);  // Q(q0, v0), and the touch records the Jacobian reads
+  // A v1 = M v0 + h (Q + D v0) with A = (1 + h c) M + h D + h^2 K (vsc_integrate.h)
+  vsc_rod_add_damping_force(rod, world, v0, rhs);
+  for (int i = 0; i < size; ++i) rhs[i] *= h;
+  double* momentum = spread;  // M v0, before `spread` is needed
+  vsc_band_multiply3(rod->mass_band, rod->n, v0, momentum);
+  for (int i = 0; i < size; ++i) rhs[i] += momentum[i];
+  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
+  vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, rod->system);
+  vsc_rod_add_jacobian(rod, world, q0, h * h, h, rod->system, gradient);
+  vsc_rod_pin_band(rod, rod->system);
+  for (int p = 0; p < rod->def.pinned_count; ++p)
+    for (int c = 0; c < 3; ++c) rhs[3 * rod->pinned[p] + c] = gradient[3 * rod->pinned[p] + c] = 0.0;
+  vsc_status status = vsc_band_wide_factor(rod->system, size, w, rod->factor_row);
+  if (status != VSC_OK) return VSC_ERROR_DIVERGED;
+  vsc_band_wide_solve(rod->system, size, w, rhs);
+  double global = h * h * rod->def.global_stretch_stiffness;
+  if (global > 0.0) {  // (A + global g g^T)^-1 r = x - (global g.x / (1 + global g.A^-1 g)) A^-1 g
+    memcpy(spread, gradient, sizeof(double) * size);
+    vsc_band_wide_solve(rod->system, size, w, spread);
+    double gx = 0.0, gy = 0.0;
+    for (int i = 0; i < size; ++i) {
+      gx += gradient[i] * rhs[i];
+      gy += gradient[i] * spread[i];
+    }
+    double scale = global * gx / (1.0 + global * gy);
+    for (int i = 0; i < size; ++i) rhs[i] -= scale * spread[i];
+  }
+  for (int i = 0; i < size; ++i) {
+    v[i] = rhs[i];
+    q[i] = q0[i] + h * v[i];
+  }
+  double* dq = rhs;  // q1 - q0 and v1 - v0 for the reactions (v and q hold the result)
+  double* dv = spread;
+  for (int i = 0; i < size; ++i) {
+    dq[i] = q[i] - q0[i];
+    dv[i] = v[i] - v0[i];
+  }
+  correct_reactions(rod, world, dq, dv);
+  return VSC_OK;
+}
+
+static vsc_status substep(vsc_integrator integrator, vsc_rod* rod, vsc_world* world, double* q, double* v,
+                          double h, double dt) {
+  switch (integrator) {
+    case VSC_INTEGRATOR_SYMPLECTIC_EULER: return symplectic_euler_substep(rod, world, q, v, h, dt);
+    case VSC_INTEGRATOR_IMPLICIT: return implicit_substep(rod, world, q, v, h, dt);
+    default: return rk4_substep(rod, world, q, v, h, dt);
+  }
+}
+
+static double mechanical_energy(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                                double* kinetic_elastic) {
+  *kinetic_elastic = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
+  return *kinetic_elastic + vsc_rod_gravity_energy(rod, world->gravity, q);
+}
+
+static void clear_reactions(const vsc_world* world) {
+  if (world->geom_wrench) memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
+  for (int g = 0; g < world->grasp_count; ++g)
+    world->grasps[g].reaction[0] = world->grasps[g].reaction[1] = world->grasps[g].reaction[2] = 0.0;
+}
+
+// One attempt at the whole step with `substeps` substeps: 0 if it diverged.
+static int attempt(vsc_rod* rod, vsc_world* world, double* q, double* v, double* stick, double dt, int substeps,
+                   vsc_integrator integrator) {
+  int size = 3 * rod->n;
+  double h = dt / (double)substeps;
+  clear_reactions(world);
+  for (int s = 0; s < substeps; ++s) {
+    if (substep(integrator, rod, world, q, v, h, dt) != VSC_OK || !state_is_sane(q, v, size)) return 0;
+    if (stick) vsc_rod_update_stick(rod, stick, h);  // from the last evaluation's contacts
+  }
+  return 1;
 }
 
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
-                        int substeps) {
-  if (substeps < 1 || !(dt > 0.0)) return VSC_ERROR_INVALID_ARGUMENT;
-  vsc_world stage_world = *world;
-  stage_world.stick = stick;
-  double h = dt / (double)substeps;
-  vsc_status status = VSC_OK;
+                        const vsc_step_options* options, vsc_step_report* report) {
+  vsc_step_options o = options ? *options : vsc_default_step_options();
+  if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
+      !(o.energy_jump_speed >= 0.0))
+    return VSC_ERROR_INVALID_ARGUMENT;
+  vsc_world step_world = *world;
+  step_world.stick = stick;
+  int size = 3 * rod->n, spheres = rod->def.collision_sphere_count;
   for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said
     double* pinned_velocity = v + 3 * rod->pinned[i];
     pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
   }
-  for (int s = 0; s < substeps; ++s) {
-    vsc_status r = rk4_substep(rod, &stage_world, q, v, h, dt);
-    if (r != VSC_OK) {
-      status = r;
-      if (stick) vsc_stick_clear(stick, rod->def.collision_sphere_count);
-      if (world->geom_wrench)  // the failed substeps' forces must not reach the bodies
-        memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
-      for (int g = 0; g < world->grasp_count; ++g)
-        world->grasps[g].reaction[0] = world->grasps[g].reaction[1] = world->grasps[g].reaction[2] = 0.0;
-    } else if (stick) {
-      vsc_rod_update_stick(rod, stick, h);  // from the last stage's contacts
+  double* start_q = rod->backup;
+  double* start_v = start_q + size;
+  double* start_stick = start_v + size;
+  memcpy(start_q, q, sizeof(double) * size);
+  memcpy(start_v, v, sizeof(double) * size);
+  if (stick) memcpy(start_stick, stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
+  double start_active;
+  double start_energy = mechanical_energy(rod, world, q, v, &start_active);
+  double allowed = o.energy_jump_ratio * start_active + 0.5 * rod->def.mass * o.energy_jump_speed * o.energy_jump_speed;
+  int substeps = o.substeps;
+  for (int retry = 0; retry <= o.retries; ++retry) {
+    if (retry > 0) {  // from the step start again, with twice the substeps
+      memcpy(q, start_q, sizeof(double) * size);
+      memcpy(v, start_v, sizeof(double) * size);
+      if (stick) memcpy(stick, start_stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
+      if (substeps > (1 << 20) / 2) break;
+      substeps *= 2;
     }
+    if (report) {
+      report->retries = retry;
+      report->substeps = substeps;
+    }
+    if (!attempt(rod, &step_world, q, v, stick, dt, substeps, o.integrator)) continue;
+    double active, energy = mechanical_energy(rod, world, q, v, &active);
+    if (isfinite(energy) && energy - start_energy <= allowed) return VSC_OK;
   }
-  return status;
+  memcpy(q, start_q, sizeof(double) * size);
+  memset(v, 0, sizeof(double) * size);
+  if (!state_is_sane(q, v, size)) memset(q, 0, sizeof(double) * size);
+  if (stick) vsc_stick_clear(stick, spheres);
+  clear_reactions(world);
+  return VSC_ERROR_DIVERGED;
 }

@@ -175,13 +175,15 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
+  rod->sample_hessian = (double*)malloc(sizeof(double) * 27 * (size_t)N);
+  rod->backup = (double*)malloc(sizeof(double) * (6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
   rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
   rod->tether_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * (size_t)(def->mesentery_points > 0 ? def->mesentery_points : 1));
   vsc_grid_create(spheres, &rod->grid);
   rod->lists = vsc_contact_lists_create(spheres);
   if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
       !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
-      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->touch || !rod->grid || !rod->lists || !rod->tether_basis) {
+      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->sample_hessian || !rod->backup || !rod->touch || !rod->grid || !rod->lists || !rod->tether_basis) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
@@ -200,6 +202,20 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
   build_gather(rod);
+  // the Jacobian couples the control points of samples up to two apart (bend
+  // springs, bending angles), the mass matrix those up to three apart
+  int reach = 3;
+  for (int a = 0; a + 2 < N; ++a) {
+    int span = rod->sample_basis[a + 2].first + VSC_SPLINE_SUPPORT - 1 - rod->sample_basis[a].first;
+    reach = span > reach ? span : reach;
+  }
+  rod->jacobian_half_width = 3 * reach + 2;
+  rod->system = (double*)malloc(sizeof(double) * 3 * (size_t)n * (size_t)(rod->jacobian_half_width + 1));
+  rod->factor_row = (double*)malloc(sizeof(double) * (size_t)(rod->jacobian_half_width + 1));
+  if (!rod->system || !rod->factor_row) {
+    vsc_rod_destroy(rod);
+    return VSC_ERROR_OUT_OF_MEMORY;
+  }
   for (int i = 0; i < def->mesentery_points; ++i)
     rod->tether_basis[i] = vsc_spline_basis(n, ((double)i + 0.5) / (double)def->mesentery_points);
   // self-contact exclusion: segments whose nearest points are closer along
@@ -232,6 +248,10 @@ void vsc_rod_destroy(vsc_rod* rod) {
   free(rod->sphere_xyz);
   free(rod->sphere_velocity);
   free(rod->stage);
+  free(rod->sample_hessian);
+  free(rod->system);
+  free(rod->factor_row);
+  free(rod->backup);
   free(rod->touch);
   free(rod->tether_basis);
   vsc_grid_destroy(rod->grid);

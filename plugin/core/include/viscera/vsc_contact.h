@@ -67,6 +67,10 @@ void vsc_stick_clear(double* stick, int sphere_count);
 /// current (vsc_rod_update_spheres). Returns the number of contacts.
 int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q);
 
+/// The strongest rigid contact of `sphere` in the last evaluation: returns its
+/// geom index (-1: none) and writes its unit normal, from the geom to the sphere.
+int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]);
+
 /// Advance the friction state by a substep of h (s), from the contacts of the
 /// last evaluation.
 void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h);

@@ -1,4 +1,5 @@
-// Explicit time integration of the rod (France et al. 2002, 3.1.4: RK4).
+// Time integration of the rod: the paper's RK4 (France et al. 2002, 3.1.4),
+// symplectic Euler and linearly implicit Euler, with divergence recovery.
 #ifndef VISCERA_VSC_INTEGRATE_H
 #define VISCERA_VSC_INTEGRATE_H
 
@@ -6,22 +7,64 @@
 
 /// Integrators selectable by name.
 typedef enum vsc_integrator {
-  VSC_INTEGRATOR_RK4 = 0,  ///< classical 4th-order Runge-Kutta, 4 force evaluations a step
+  /// Classical 4th-order Runge-Kutta: 4 force evaluations a substep, stable to
+  /// h < 2.8 / omega_max, energy error O(h^4) (it loses energy, never gains).
+  VSC_INTEGRATOR_RK4 = 0,
+  /// Symplectic (semi-implicit) Euler, v += h a(q, v), then q += h v: 1
+  /// evaluation a substep, stable to h < 2 / omega_max, first order, and its
+  /// energy error stays bounded (it conserves a nearby energy).
+  VSC_INTEGRATOR_SYMPLECTIC_EULER = 1,
+  /// Linearly implicit (backward) Euler: one Newton step of backward Euler per
+  /// substep, [(1 + h c) M + h D + h^2 K] v1 = M v0 + h (Q + D v0), q1 = q0 + h v1,
+  /// with K and D the band Jacobians of vsc_jacobian.h (the global stretch
+  /// term's rank-one part by Sherman-Morrison): O(n), 1 evaluation a substep.
+  /// A-stable (L-stable) on the linearised forces, so the elastic and rigid
+  /// contact stiffness never limit h; first order, and it damps motion whose
+  /// period is not resolved by h. Self-contacts and friction stay explicit.
+  VSC_INTEGRATOR_IMPLICIT = 2,
 } vsc_integrator;
 
-/// Largest speed (m/s) a finite state may reach before it counts as diverged.
-#define VSC_DIVERGED_SPEED 1.0e4
+/// A finite state counts as diverged when a control point moves faster than
+/// this (m/s): nothing in a surgical scene does.
+#define VSC_DIVERGED_SPEED 100.0
+
+/// How vsc_rod_step integrates and when it calls a step diverged.
+typedef struct vsc_step_options {
+  vsc_integrator integrator;
+  int substeps;              ///< substeps per step (>= 1)
+  int retries;               ///< on divergence, retry up to this many times, doubling the substeps (>= 0)
+  double energy_jump_ratio;  ///< a step diverged if the rod's energy grows by more than this times
+                             ///< its kinetic + elastic energy at the step start ...
+  double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
+} vsc_step_options;
+
+/// RK4, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2.
+vsc_step_options vsc_default_step_options(void);
+
+/// What a step did.
+typedef struct vsc_step_report {
+  int retries;    ///< attempts after the first (0: the first attempt held)
+  int substeps;   ///< substeps of the last attempt
+} vsc_step_report;
 
 /// Advance q (m), v (m/s) and the friction state `stick` (VSC_STICK_SIZE per
-/// sphere, may be NULL) in place by `substeps` RK4 steps of dt / substeps
-/// (dt in s). The world (geom poses) is frozen over dt. If world->geom_wrench
-/// is set, the reaction on each geom averaged over dt is added to it (RK4's
-/// stage weights), so the impulse the geoms receive is exactly the one the rod
-/// gave. If the state becomes non-finite or faster than VSC_DIVERGED_SPEED, q
-/// is restored to its value at the start of the failing substep, v, the
-/// friction state and the geom reactions are cleared and VSC_ERROR_DIVERGED is
-/// returned: the state always stays finite.
+/// sphere, may be NULL) in place by one step dt (s) of options->substeps
+/// substeps. The world (geom poses, grasp anchors) is frozen over dt. If
+/// world->geom_wrench is set it receives (overwritten, not added) the reaction
+/// on each geom averaged over dt, and each grasp's `reaction` likewise: the
+/// impulse the geoms receive is the one the rod gave (for the implicit
+/// integrator, its linearised forces at the step end).
+///
+/// Divergence: a substep diverges when the state becomes non-finite or faster
+/// than VSC_DIVERGED_SPEED, or its factorisation fails; a step diverges when
+/// one of its substeps does or its energy (kinetic + elastic + gravity) jumps
+/// past the options' bound. A diverged step is retried from its start with
+/// twice the substeps, up to options->retries times; VSC_OK is returned if an
+/// attempt held (report->retries > 0 then says it was recovered). If none
+/// held, q and the friction state are restored to the step start, v is zeroed,
+/// reactions are zeroed and VSC_ERROR_DIVERGED is returned. Either way the
+/// state stays finite. `report` may be NULL.
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
-                        int substeps);
+                        const vsc_step_options* options, vsc_step_report* report);
 
 #endif  // VISCERA_VSC_INTEGRATE_H

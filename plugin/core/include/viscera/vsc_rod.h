@@ -127,6 +127,11 @@ typedef struct vsc_rod {
   double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
   double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
   double* stage;             ///< integrator stages (8 x 3n)
+  int jacobian_half_width;   ///< half-bandwidth of the force Jacobian over the 3n unknowns (vsc_jacobian.h)
+  double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
+  double* system;            ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
+  double* factor_row;        ///< factorisation scratch (jacobian_half_width + 1)
+  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state
   vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
   vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
   int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
