@@ -86,12 +86,14 @@ def _substeps(n: int, length: float, rigidity: float, axial: float = 0.0, extra_
     return int(np.ceil(step * max(bending, stretch, extra_rate) / 1.5))
 
 
-def catenary(n: int) -> dict:
+def catenary(n: int, integrator: str = "rk4", timestep: float = 0.001, substeps: int = 2,
+             stretch_stiffness: float = 100.0) -> dict:
     depth = np.sqrt(2.0**2 - 1.5**2)  # a V of the rod's length
-    config = dict(length=4, control_points=n, stretch_stiffness=100, bend_stiffness=0, global_stretch_stiffness=5000,
-                  damping=4, substeps=2, self_collision=0, shape="polyline",
+    config = dict(length=4, control_points=n, stretch_stiffness=stretch_stiffness, bend_stiffness=0,
+                  global_stretch_stiffness=5000, damping=4, substeps=substeps, integrator=integrator,
+                  divergence_retries=0, self_collision=0, shape="polyline",
                   points=[-1.5, 0, 0, 0, 0, -depth, 1.5, 0, 0], pinned=[0, n - 1])
-    data, gut, cost = _relax(config, 6.0, 0.001)
+    data, gut, cost = _relax(config, 6.0, timestep)
     sag = -gut.axis_points(data, 20001)[:, 2].min()
     return {"value": sag, "reference": CATENARY_SAG, "unit": "m", "wall_s_per_sim_s": cost}
 
@@ -108,16 +110,18 @@ def hanging_rod(n: int) -> dict:
 
 
 
-def cantilever(n: int) -> dict:
-    """0.5 m clamped (config clamped="start") under its own weight, EI for a 1 % tip deflection."""
+def cantilever(n: int, integrator: str = "rk4", timestep: float = 0.001, substeps: int | None = None) -> dict:
+    """0.5 m clamped (config clamped="start") under its own weight, EI for a 1 % tip deflection.
+    `substeps` per `timestep` (s); by default RK4's under its stability limit at 1 ms."""
     length, tip_fraction = 0.5, 0.01
     rigidity = MU * G * length**4 / (8.0 * tip_fraction * length)
     # the axis barely stretches here: a softer EA (raw stiffness wins) keeps the step affordable
-    substeps = _substeps(n, length, rigidity)
+    substeps = substeps or _substeps(n, length, rigidity)
     config = dict(length=length, control_points=n, radius=RADIUS, density=DENSITY,
                   young_modulus=rigidity / SECOND_MOMENT, stretch_stiffness=2000, damping=30, substeps=substeps,
-                  self_collision=0, shape="line", direction=[1, 0, 0], clamped="start")
-    data, gut, cost = _relax(config, 0.6, 0.001)
+                  integrator=integrator, divergence_retries=0, self_collision=0, shape="line", direction=[1, 0, 0],
+                  clamped="start")
+    data, gut, cost = _relax(config, 0.6, timestep)
     tip = gut.axis_points(data, 2)[-1]
     return {"value": -tip[2], "reference": MU * G * length**4 / (8.0 * rigidity), "unit": "m",
             "wall_s_per_sim_s": cost, "substeps": substeps}
@@ -266,40 +270,159 @@ def largest_stable_step(config: dict, integrator: str = "rk4") -> tuple[float, s
     return low, failure
 
 
-def stability_map(quick: bool = False) -> dict:
-    """Largest stable RK4 substep against stretch stiffness (250 points) and against control points
-    (default stiffness), 4 m rod, no damping, no contact. The plugin's divergence warnings, expected
-    past each limit, are silenced meanwhile."""
-    mujoco.set_mju_user_warning(lambda message: None)
-    try:
-        return _stability_map(quick)
-    finally:
+INTEGRATORS = ("rk4", "symplectic_euler", "implicit")
+
+
+class _quiet_warnings:
+    """Silence the plugin's divergence warnings, expected where a run probes a limit."""
+
+    def __enter__(self):
+        mujoco.set_mju_user_warning(lambda message: None)
+
+    def __exit__(self, *exc):
         mujoco.set_mju_user_warning(None)
 
 
-def _stability_map(quick: bool) -> dict:
+def stability_map(quick: bool = False) -> dict:
+    """Largest stable substep of each integrator against stretch stiffness (250 points) and
+    against control points (default stiffness), 4 m rod, no damping, no contact, no retries."""
+    with _quiet_warnings():
+        return {name: _stability_map(quick, name) for name in INTEGRATORS}
+
+
+def _stability_map(quick: bool, integrator: str) -> dict:
     base = dict(length=4, damping=0, self_collision=0, shape="line")
     stiffnesses = (10, 100, 1000) if quick else (3, 10, 30, 100, 300, 1000)
     counts = (50, 250) if quick else (25, 50, 100, 250, 500, 1000)
-    out = {"integrator": "rk4", "against_stretch_stiffness": [], "against_control_points": []}
-    for k in tqdm(stiffnesses, desc="stability vs stiffness", leave=False):
-        step, failure = largest_stable_step(dict(base, control_points=250, stretch_stiffness=k))
+    out = {"against_stretch_stiffness": [], "against_control_points": []}
+    for k in tqdm(stiffnesses, desc=f"{integrator} stability vs stiffness", leave=False):
+        step, failure = largest_stable_step(dict(base, control_points=250, stretch_stiffness=k), integrator)
         out["against_stretch_stiffness"].append({"stretch_stiffness": k, "largest_step_s": step, "failure": failure})
-    for n in tqdm(counts, desc="stability vs points", leave=False):
-        step, failure = largest_stable_step(dict(base, control_points=n))
+    for n in tqdm(counts, desc=f"{integrator} stability vs points", leave=False):
+        step, failure = largest_stable_step(dict(base, control_points=n), integrator)
         out["against_control_points"].append({"control_points": n, "largest_step_s": step, "failure": failure})
     return out
 
 
+def fewest_substeps(case, limit: int = 512) -> tuple[int, dict]:
+    """The fewest substeps (powers of two) at which `case(substeps)` runs without diverging, and
+    its row; (0, {}) if even `limit` diverges."""
+    substeps = 1
+    with _quiet_warnings():
+        while substeps <= limit:
+            try:
+                return substeps, case(substeps)
+            except RuntimeError:
+                substeps *= 2
+    return 0, {}
+
+
+def stiff_comparison(quick: bool = False) -> list[dict]:
+    """At a 2 ms MuJoCo step, where RK4 needs many substeps: the catenary at 30x its stretch
+    stiffness (n = 100) and the clamped cantilever (n = 32; EI for 1 % deflection), each with
+    every integrator at the fewest substeps that hold. Rows: case, integrator, substeps, value,
+    relative error, wall s per sim s."""
+    cases = {"catenary (stretch 3000 N/m, n = 100)": lambda integrator, s: catenary(
+                 50 if quick else 100, integrator, 0.002, s, stretch_stiffness=3000.0),
+             "cantilever (n = 32)": lambda integrator, s: cantilever(16 if quick else 32, integrator, 0.002, s)}
+    rows = []
+    for name, case in tqdm(cases.items(), desc="stiff cases", leave=False):
+        for integrator in INTEGRATORS:
+            substeps, row = fewest_substeps(functools.partial(case, integrator))
+            if row:
+                row["relative_error"] = abs(row["value"] - row["reference"]) / abs(row["reference"])
+            rows.append(dict(row, case=name, integrator=integrator, substeps=substeps, step_s=0.002))
+    return rows
+
+
+def _unstretched_half_sine(n: int, amplitude: float) -> np.ndarray:
+    """n control points (m) of a 1 m axis bent into z = amplitude sin(pi s) at arc length s."""
+    s = np.linspace(0.0, 1.0, 4001)
+    slope = amplitude * np.pi * np.cos(np.pi * s)
+    dx = np.sqrt(1.0 - slope**2)
+    x = np.concatenate(([0.0], np.cumsum(0.5 * (dx[1:] + dx[:-1]) * np.diff(s))))
+    at = np.linspace(0.0, 1.0, n)
+    return np.stack([np.interp(at, s, x), np.zeros(n), amplitude * np.sin(np.pi * at)], axis=1)
+
+
+def integrator_accuracy(quick: bool = False) -> dict:
+    """Speed against accuracy of each integrator on a dynamic case: a 1 m, 25-point rod (E = 1e5
+    Pa) bent without stretch into half a sine wave of 5 cm and released without damping: its
+    position error at t = 0.25 s against RK4 at 0.01 ms, and the wall s per sim s, at MuJoCo
+    steps from 4 ms down (one substep each, no retries). Unstretched, so that the start rings
+    the bending modes, not the axial ones (which backward Euler would damp away: a floor of
+    0.3 % of the amplitude from a 0.6 % stretch, at every step tried)."""
+    steps = (2e-3, 5e-4) if quick else (4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4)
+
+    def run(integrator, step):
+        config = dict(length=1.0, control_points=25, young_modulus=1e5, damping=0, substeps=1, self_collision=0,
+                      shape="line", direction=[1, 0, 0], integrator=integrator, divergence_retries=0)
+        model, data, gut = _compile(config, step, gravity=(0, 0, 0))
+        gut.positions(data)[:] = _unstretched_half_sine(gut.control_count, 0.05)
+        count = int(round(0.25 / step))
+        start = time.perf_counter()
+        for _ in range(count):
+            mujoco.mj_step(model, data)
+        wall = (time.perf_counter() - start) / (count * step)
+        return gut.positions(data).copy(), gut.divergence_count(data) > 0, wall
+
+    with _quiet_warnings():
+        reference, _, _ = run("rk4", 1e-5)
+        out = {}
+        for integrator in INTEGRATORS:
+            out[integrator] = []
+            for step in tqdm(steps, desc=f"{integrator} accuracy", leave=False):
+                positions, diverged, wall = run(integrator, step)
+                error = float(np.abs(positions - reference).max() / 0.05)
+                out[integrator].append({"step_s": step, "diverged": bool(diverged),
+                                        "error_over_amplitude": None if diverged else error,
+                                        "wall_s_per_sim_s": wall})
+    return out
+
+
+def energy_bounds(duration: float = 100.0, integrators: tuple[str, ...] = INTEGRATORS) -> dict:
+    """A 1 m, 40-point rod pinned at its top swings from 20 degrees for `duration` s without
+    damping, at 2 ms: the largest energy error over each half, per swing energy, for symplectic
+    Euler (4 substeps: 4 force evaluations a step), RK4 at the same cost (1 substep) and the
+    implicit step (1 substep)."""
+    tilt = 0.35
+    out = {}
+    for integrator, substeps in (("symplectic_euler", 4), ("rk4", 1), ("implicit", 1)):
+        if integrator not in integrators:
+            continue
+        config = dict(length=1.0, control_points=40, damping=0, substeps=substeps, integrator=integrator,
+                      self_collision=0, shape="line", direction=[np.sin(tilt), 0, -np.cos(tilt)], pinned=[0])
+        model, data, gut = _compile(config, 0.002)
+        gut.positions(data)[:] *= 1.01  # 1 % stretched: it rings as it swings
+        swing = gut.mass * G * 0.5 * (1.0 - np.cos(tilt))
+        start = sum(gut.energy(data).values())
+        halves = [0.0, 0.0]
+        steps = int(round(duration / 0.002))
+        for i in tqdm(range(steps), desc=f"{integrator} energy", leave=False):
+            mujoco.mj_step(model, data)
+            if i % 10 == 9:
+                error = abs(sum(gut.energy(data).values()) - start) / swing
+                halves[2 * i // steps] = max(halves[2 * i // steps], error)
+        out[integrator] = {"substeps": substeps, "first_half": halves[0], "second_half": halves[1],
+                           "final_relative_change": (sum(gut.energy(data).values()) - start) / swing}
+    return out
+
+
 def cost_per_step(quick: bool = False) -> dict:
-    """Wall time of one RK4 substep (s) against control points, 4 m rod dropped onto a plane with
-    self-collision (the default 321 spheres), over its first 0.1 s; and the log-log slope."""
+    """Wall time of one substep (s) of each integrator against control points, 4 m rod dropped
+    onto a plane with self-collision (the default 321 spheres), over its first 0.1 s; and the
+    log-log slopes."""
+    return {name: _cost_per_step(quick, name) for name in INTEGRATORS}
+
+
+def _cost_per_step(quick: bool, integrator: str) -> dict:
     counts = (25, 100, 400) if quick else (25, 50, 100, 250, 500, 1000, 2000)
     rows = []
-    for n in tqdm(counts, desc="cost per step", leave=False):
-        step = min(1e-3, 0.25 / n)  # under the stability limit at every n
-        xml = (f'<mujoco><option timestep="{step}"/>'
-               f'{viscera.extension_xml("rod", length=4, control_points=n, substeps=1, shape="line", start=[0, 0, 0.05], direction=[1, 0, 0.05])}'
+    for n in tqdm(counts, desc=f"{integrator} cost per step", leave=False):
+        step = min(1e-3, 0.25 / n)  # under the explicit stability limits at every n
+        config = dict(length=4, control_points=n, substeps=1, integrator=integrator, shape="line",
+                      start=[0, 0, 0.05], direction=[1, 0, 0.05])
+        xml = (f'<mujoco><option timestep="{step}"/>{viscera.extension_xml("rod", **config)}'
                f'<worldbody><geom type="plane" size="5 5 0.1"/></worldbody></mujoco>')
         model = mujoco.MjModel.from_xml_string(xml)
         data = mujoco.MjData(model)
@@ -411,41 +534,71 @@ def run(quick: bool = False, quiet: bool = False, peers: bool = True) -> tuple[d
     return results, peer_results
 
 
-def plot_maps(stability: dict, cost: dict, folder: pathlib.Path) -> list[pathlib.Path]:
+INTEGRATOR_STYLE = {"rk4": "o-", "symplectic_euler": "s-", "implicit": "D-"}
+
+
+def plot_maps(stability: dict, cost: dict, accuracy: dict, folder: pathlib.Path) -> list[pathlib.Path]:
+    """The stability map, the cost per substep and the integrators' speed against accuracy."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
+    fig, axes = plt.subplots(1, 2, figsize=(9.5, 3.8))
     for ax, key, label in ((axes[0], "against_stretch_stiffness", "stretch_stiffness"),
                            (axes[1], "against_control_points", "control_points")):
-        rows = stability[key]
-        x = [r[label] for r in rows]
-        y = [r["largest_step_s"] * 1e3 for r in rows]
-        ax.loglog(x, y, "o-", label="RK4: largest stable substep")
-        for r in rows:
-            ax.annotate(r["failure"], (r[label], r["largest_step_s"] * 1e3 * 1.1), fontsize=7)
+        for integrator, maps in stability.items():
+            rows = maps[key]
+            x = [r[label] for r in rows]
+            y = [r["largest_step_s"] * 1e3 for r in rows]
+            capped = all(r["failure"].startswith("stable at") for r in rows)
+            ax.loglog(x, y, INTEGRATOR_STYLE.get(integrator, "x-"),
+                      label=integrator + (" (stable at the 20 ms cap everywhere)" if capped else ""))
+        ax.axhline(2.0, color="grey", lw=0.8, ls=":")
+        ax.annotate("2 ms MuJoCo step", (ax.get_xlim()[0], 2.2), fontsize=7, color="grey")
         ax.set_xlabel(label.replace("_", " ") + (" (N/m)" if "stiffness" in label else ""))
-        ax.set_ylabel("substep (ms)")
+        ax.set_ylabel("largest stable substep (ms)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle("stability map (4 m rod, released from 2 % stretch, no damping); label: failure past it", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.suptitle("stability map (4 m rod, released from 2 % stretch, no damping, no retries)", fontsize=9)
     fig.tight_layout()
     stability_path = folder / "stability_map.png"
     fig.savefig(stability_path, dpi=110)
     plt.close(fig)
-    fig, ax = plt.subplots(figsize=(5, 3.6))
-    x = [r["control_points"] for r in cost["rows"]]
-    y = [r["seconds_per_substep"] * 1e6 for r in cost["rows"]]
-    ax.loglog(x, y, "o-", label=f"RK4 substep, self-collision on (slope {cost['slope']:.2f})")
+    fig, ax = plt.subplots(figsize=(5.2, 3.8))
+    for integrator, table in cost.items():
+        x = [r["control_points"] for r in table["rows"]]
+        y = [r["seconds_per_substep"] * 1e6 for r in table["rows"]]
+        ax.loglog(x, y, INTEGRATOR_STYLE.get(integrator, "x-"), label=f"{integrator} (slope {table['slope']:.2f})")
     ax.set_xlabel("control points")
     ax.set_ylabel("wall time per substep (us)")
+    ax.set_title("one substep, self-collision on, dropped on a plane", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
     cost_path = folder / "cost_per_step.png"
     fig.savefig(cost_path, dpi=110)
     plt.close(fig)
-    return [stability_path, cost_path]
+    fig, ax = plt.subplots(figsize=(5.6, 4.0))
+    for integrator, rows in accuracy.items():
+        held = [r for r in rows if not r["diverged"]]
+        x = [r["wall_s_per_sim_s"] for r in held]
+        y = [max(r["error_over_amplitude"], 1e-12) for r in held]
+        ax.loglog(x, y, INTEGRATOR_STYLE.get(integrator, "x-"), label=integrator)
+        for r, xi, yi in zip(held, x, y):
+            ax.annotate(f"{r['step_s'] * 1e3:g}", (xi, yi), textcoords="offset points", xytext=(4, 3), fontsize=6)
+        unstable = [f"{r['step_s'] * 1e3:g}" for r in rows if r["diverged"]]
+        if unstable:
+            ax.plot([], [], " ", label=f"  {integrator} diverged at " + ", ".join(unstable) + " ms")
+    ax.set_xlabel("wall seconds per simulated second")
+    ax.set_ylabel("position error at 0.25 s / amplitude")
+    ax.set_title("speed against accuracy of the integrators (labels: step, ms)\n"
+                 "1 m rod, E = 1e5 Pa, released bent, undamped", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    accuracy_path = folder / "integrators.png"
+    fig.savefig(accuracy_path, dpi=110)
+    plt.close(fig)
+    return [stability_path, cost_path, accuracy_path]
 
 
 PEER_STYLE = {"mujoco_flexcomp": "s--", "mujoco_cable": "^--", "pyelastica": "D--"}
@@ -524,23 +677,42 @@ def main(argv: list[str] | None = None) -> int:
     lengths = length_preservation()
     stability = stability_map(args.quick)
     cost = cost_per_step(args.quick)
+    accuracy = integrator_accuracy(args.quick)
+    stiff = stiff_comparison(args.quick)
+    bounds = energy_bounds(20.0 if args.quick else 100.0)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "results.json").write_text(json.dumps(
         {"cases": results, "peers": peer_results, "energy_drift": drift, "length_preservation": lengths,
-         "stability_map": stability, "cost_per_step": cost}, indent=2))
+         "stability_map": stability, "cost_per_step": cost, "integrator_accuracy": accuracy,
+         "stiff_comparison": stiff, "energy_bounds": bounds}, indent=2))
     plot(results, peer_results, args.out)
-    plot_maps(stability, cost, args.out)
+    plot_maps(stability, cost, accuracy, args.out)
     print(report(results, peer_results))
     print("energy drift over 1 s (RK4, no damping): " + ", ".join(
         f"{r['step_s'] * 1e3:.2g} ms: {r['relative_energy_drift']:.2e}" for r in drift["rows"])
         + f"; order in dt {drift['order_in_dt']:.2f}")
     print("hanging 4 m intestine, relative stretch: " + ", ".join(
         f"{k.replace('_', ' ')}: {v['relative_stretch']:.4f}" for k, v in lengths.items()))
-    for key, label in (("against_stretch_stiffness", "stretch_stiffness"), ("against_control_points", "control_points")):
-        print("RK4 largest stable substep vs " + label + ": " + ", ".join(
-            f"{r[label]}: {r['largest_step_s'] * 1e3:.3g} ms ({r['failure']})" for r in stability[key]))
-    print("cost per substep (us): " + ", ".join(f"n={r['control_points']}: {r['seconds_per_substep'] * 1e6:.1f}"
-                                                 for r in cost["rows"]) + f"; log-log slope {cost['slope']:.2f}")
+    for integrator, maps in stability.items():
+        for key, label in (("against_stretch_stiffness", "stretch_stiffness"), ("against_control_points", "control_points")):
+            print(f"{integrator} largest stable substep vs {label}: " + ", ".join(
+                f"{r[label]}: {r['largest_step_s'] * 1e3:.3g} ms ({r['failure']})" for r in maps[key]))
+    for integrator, table in cost.items():
+        print(f"{integrator} cost per substep (us): " + ", ".join(
+            f"n={r['control_points']}: {r['seconds_per_substep'] * 1e6:.1f}" for r in table["rows"])
+            + f"; log-log slope {table['slope']:.2f}")
+    for integrator, rows in accuracy.items():
+        print(f"{integrator} error at 0.25 s / amplitude: " + ", ".join(
+            f"{r['step_s'] * 1e3:g} ms: " + ("diverged" if r["diverged"] else
+                                            f"{r['error_over_amplitude']:.2e} ({r['wall_s_per_sim_s']:.3f} s/s)")
+            for r in rows))
+    for r in stiff:
+        print(f"{r['case']}, {r['integrator']}: " + (f"{r['substeps']} substeps at 2 ms, error "
+              f"{r['relative_error']:.2e}, {r['wall_s_per_sim_s']:.3f} wall s/sim s" if r["substeps"]
+              else "diverged at every substep count tried"))
+    for integrator, row in bounds.items():
+        print(f"{integrator} ({row['substeps']} substeps at 2 ms), energy error / swing energy: first half "
+              f"{row['first_half']:.3g}, second half {row['second_half']:.3g}")
     print(f"wrote {args.out / 'results.json'} and the charts")
     return 0
 

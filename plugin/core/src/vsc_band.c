@@ -68,20 +68,23 @@ void vsc_band_multiply3(const double* band, int n, const double* x, double* y) {
 #define W(i, j) band[(size_t)(w + 1) * (size_t)(i) + (size_t)(w + (j) - (i))]
 
 vsc_status vsc_band_wide_factor(double* band, int size, int w, double* ld) {
+  size_t stride = (size_t)w + 1;
   for (int i = 0; i < size; ++i) {
     int j0 = i - w < 0 ? 0 : i - w;
+    double* row_i = band + stride * (size_t)i + (size_t)(w - i);  // row_i[j] = A(i, j)
     // ld[k - j0] = L(i, k) D(k) as it is found, so each entry costs one dot product
     for (int j = j0; j < i; ++j) {
-      double sum = W(i, j);
+      const double* row_j = band + stride * (size_t)j + (size_t)(w - j);
       int k0 = j - w > j0 ? j - w : j0;
-      for (int k = k0; k < j; ++k) sum -= ld[k - j0] * W(j, k);
+      double sum = row_i[j];
+      for (int k = k0; k < j; ++k) sum -= ld[k - j0] * row_j[k];
       ld[j - j0] = sum;
-      W(i, j) = sum * W(j, j);
+      row_i[j] = sum * row_j[j];
     }
-    double pivot = W(i, i);
-    for (int k = j0; k < i; ++k) pivot -= ld[k - j0] * W(i, k);
+    double pivot = row_i[i];
+    for (int k = j0; k < i; ++k) pivot -= ld[k - j0] * row_i[k];
     if (!(pivot > 0.0) || !isfinite(pivot)) return VSC_ERROR_NOT_POSITIVE_DEFINITE;
-    W(i, i) = 1.0 / pivot;
+    row_i[i] = 1.0 / pivot;
   }
   return VSC_OK;
 }

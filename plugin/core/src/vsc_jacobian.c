@@ -14,10 +14,19 @@
 // c H added at block (k, l) of the 3n x 3n matrix, k >= l (lower blocks only;
 // on the diagonal only the lower triangle is stored).
 static void add_block(double* band, int w, int k, int l, double c, const double H[9]) {
-  for (int r = 0; r < 3; ++r) {
-    int row = 3 * k + r, columns = k == l ? r + 1 : 3;
-    for (int s = 0; s < columns; ++s) BAND(band, w, row, 3 * l + s) += c * H[3 * r + s];
+  // entry (3k + r, 3l + s) sits at (w + 1)(3k + r) + w + 3l + s - 3k - r = corner + r w + s
+  double* corner = band + (size_t)(w + 1) * (size_t)(3 * k) + (size_t)(w + 3 * l - 3 * k);
+  if (k != l) {
+    for (int r = 0; r < 3; ++r) {
+      double* row = corner + (size_t)r * (size_t)w;
+      row[0] += c * H[3 * r];
+      row[1] += c * H[3 * r + 1];
+      row[2] += c * H[3 * r + 2];
+    }
+    return;
   }
+  for (int r = 0; r < 3; ++r)
+    for (int s = 0; s <= r; ++s) corner[(size_t)r * (size_t)w + (size_t)s] += c * H[3 * r + s];
 }
 
 static void transpose(const double H[9], double T[9]) {
@@ -27,11 +36,12 @@ static void transpose(const double H[9], double T[9]) {
 
 // c H (H symmetric, 3 x 3) at one abscissa's basis window: B^T H B.
 static void add_at_basis(double* band, int w, const vsc_basis* b, double c, const double H[9]) {
-  for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i)
-    for (int j = 0; j <= i; ++j) {
-      double weight = c * b->weight[i] * b->weight[j];
-      if (weight != 0.0) add_block(band, w, b->first + i, b->first + j, weight, H);
-    }
+  for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i) {
+    if (fabs(b->weight[i]) < VSC_NEGLIGIBLE_WEIGHT) continue;
+    for (int j = 0; j <= i; ++j)
+      if (fabs(b->weight[j]) >= VSC_NEGLIGIBLE_WEIGHT)
+        add_block(band, w, b->first + i, b->first + j, c * b->weight[i] * b->weight[j], H);
+  }
 }
 
 void vsc_rod_add_mass(const vsc_rod* rod, double mass_weight, double* band) {
@@ -122,21 +132,25 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
     double u[3], v[3], X[9], Y[9], XY[9], T[9];
     double lu = edge(rod, a - 1, a, u), lv = edge(rod, a, a + 1, v);
     if (!(lu > 0.0) || !(lv > 0.0)) continue;
-    unit_derivative(u, lu, X);  // d(u/|u|)/du
+    unit_derivative(u, lu, X);  // d(u/|u|)/du, symmetric, and X X = X / |u| (a projector over |u|)
     unit_derivative(v, lv, Y);
-    for (int i = 0; i < 9; ++i) XY[i] = X[i] + Y[i];
-    multiply(X, X, k, T);
-    add_sample(rod, a - 1, a - 1, 1.0, T);
-    multiply(XY, XY, k, T);
-    add_sample(rod, a, a, 1.0, T);
-    multiply(Y, Y, k, T);
-    add_sample(rod, a + 1, a + 1, 1.0, T);
-    multiply(XY, X, -k, T);
-    add_sample(rod, a, a - 1, 1.0, T);
-    multiply(Y, XY, -k, T);
-    add_sample(rod, a + 1, a, 1.0, T);
-    multiply(Y, X, k, T);
-    add_sample(rod, a + 1, a - 1, 1.0, T);
+    double XX[9], YY[9], YX[9];
+    multiply(Y, X, 1.0, YX);  // and X Y = (Y X)^T
+    for (int i = 0; i < 9; ++i) {
+      XX[i] = X[i] / lu;
+      YY[i] = Y[i] / lv;
+    }
+    transpose(YX, XY);
+    // J = (X, -(X + Y), Y) for samples a - 1, a, a + 1; blocks k J_i J_j
+    for (int i = 0; i < 9; ++i) T[i] = XX[i] + YY[i] + XY[i] + YX[i];
+    add_sample(rod, a - 1, a - 1, k, XX);
+    add_sample(rod, a, a, k, T);
+    add_sample(rod, a + 1, a + 1, k, YY);
+    for (int i = 0; i < 9; ++i) T[i] = XX[i] + YX[i];  // (X + Y) X
+    add_sample(rod, a, a - 1, -k, T);
+    for (int i = 0; i < 9; ++i) T[i] = YX[i] + YY[i];  // Y (X + Y)
+    add_sample(rod, a + 1, a, -k, T);
+    add_sample(rod, a + 1, a - 1, k, YX);
   }
   int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
   for (int end = 0; end < 2; ++end) {
@@ -162,10 +176,11 @@ static void project_samples(vsc_rod* rod, double c, double* band) {
       double Ht[9], sum[9];
       transpose(H, Ht);
       for (int i = 0; i < 9; ++i) sum[i] = H[i] + Ht[i];
-      for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i)
+      for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i) {
+        if (fabs(bd->weight[i]) < VSC_NEGLIGIBLE_WEIGHT) continue;
         for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
+          if (fabs(ba->weight[j]) < VSC_NEGLIGIBLE_WEIGHT) continue;
           double weight = c * bd->weight[i] * ba->weight[j];
-          if (weight == 0.0) continue;
           int k = bd->first + i, l = ba->first + j;
           if (d == 0) {  // S(a, a) is symmetric: its mirror term is this sum's own (l, k)
             if (k >= l) add_block(band, w, k, l, weight, H);
@@ -177,6 +192,7 @@ static void project_samples(vsc_rod* rod, double c, double* band) {
             add_block(band, w, k, k, weight, sum);
           }
         }
+      }
     }
   }
 }

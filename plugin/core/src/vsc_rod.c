@@ -204,9 +204,14 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   build_gather(rod);
   // the Jacobian couples the control points of samples up to two apart (bend
   // springs, bending angles), the mass matrix those up to three apart
+  // (weights below VSC_NEGLIGIBLE_WEIGHT, rounding's leftovers at knots, do not count)
   int reach = 3;
   for (int a = 0; a + 2 < N; ++a) {
-    int span = rod->sample_basis[a + 2].first + VSC_SPLINE_SUPPORT - 1 - rod->sample_basis[a].first;
+    const vsc_basis *low = &rod->sample_basis[a], *high = &rod->sample_basis[a + 2];
+    int first = 0, last = VSC_SPLINE_SUPPORT - 1;
+    while (first < VSC_SPLINE_SUPPORT - 1 && fabs(low->weight[first]) < VSC_NEGLIGIBLE_WEIGHT) ++first;
+    while (last > 0 && fabs(high->weight[last]) < VSC_NEGLIGIBLE_WEIGHT) --last;
+    int span = high->first + last - (low->first + first);
     reach = span > reach ? span : reach;
   }
   rod->jacobian_half_width = 3 * reach + 2;

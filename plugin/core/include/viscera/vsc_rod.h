@@ -72,6 +72,10 @@ typedef struct vsc_rod_def {
   double mesentery_root[6];          ///< root line, from (m, 3) to (m, 3); tether i ends at the same fraction of it
 } vsc_rod_def;
 
+/// Basis weights smaller than this (dimensionless) are left out of the force
+/// Jacobians: at a sample on a knot the weights are (0, 1, 0, 0) up to rounding.
+#define VSC_NEGLIGIBLE_WEIGHT 1e-12
+
 /// Resolution limits: beyond them a definition is rejected (no overflow, no hang).
 #define VSC_MAX_CONTROL_POINTS 1000000
 #define VSC_MAX_SAMPLES 10000000          ///< (control points - 1) x samples per segment + 1
