@@ -55,21 +55,20 @@ def record_gesture_controls(duration: float = 20.0) -> np.ndarray:
     return np.array(controls)
 
 
+# config keys each variant adds to the intestine's instance
+VARIANT_CONFIG = {"spheres 1.5 r": {"collision_spheres": 161},
+                  "implicit, 1 substep": {"integrator": "implicit", "substeps": 1},
+                  "symplectic Euler, 4 substeps": {"integrator": "symplectic_euler", "substeps": 4},
+                  "no self-collision": {"self_collision": 0}}
+
+
 def variant_xml(name: str) -> str:
-    """The cavity scene, whole or with a part removed."""
+    """The cavity scene, whole, with config keys added, or with the intestine removed."""
     text = clear_area._scene_path().read_text()
-    if name == "spheres 1.5 r":
-        return text.replace('<config key="friction"', '<config key="collision_spheres" value="161"/>\n        '
-                            '<config key="friction"', 1)
-    if name == "implicit, 1 substep":
-        return text.replace('<config key="friction"', '<config key="integrator" value="implicit"/>\n        '
-                            '<config key="substeps" value="1"/>\n        <config key="friction"', 1)
-    if name == "symplectic Euler, 4 substeps":
-        return text.replace('<config key="friction"', '<config key="integrator" value="symplectic_euler"/>\n        '
-                            '<config key="substeps" value="4"/>\n        <config key="friction"', 1)
-    if name == "no self-collision":
-        return text.replace('<config key="friction"', '<config key="self_collision" value="0"/>\n        '
-                            '<config key="friction"', 1)
+    if name in VARIANT_CONFIG:
+        added = "".join(f'<config key="{key}" value="{value}"/>\n        '
+                        for key, value in VARIANT_CONFIG[name].items())
+        return text.replace('<config key="friction"', added + '<config key="friction"', 1)
     if name == "rigid only":
         text = re.sub(r"<extension>.*?</extension>", "", text, flags=re.S)
         return re.sub(r"<sensor>.*?</sensor>", "", text, flags=re.S)
