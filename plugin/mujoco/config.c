@@ -388,6 +388,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (clamp < 0) return fail(&r, "attribute 'clamped' = '%s' must be none, start, end or both", clamped);
   d->clamp_start = clamp & 1;
   d->clamp_end = (clamp >> 1) & 1;
+  // refuse absurd resolutions here, with the keys that set them, rather than
+  // let the allocation crash or the OOM killer end the process
+  double bytes = vsc_rod_memory_bytes(d);
+  if (bytes > VSC_MAX_ROD_BYTES)
+    return fail(&r, "attributes 'control_points' = %d, 'samples_per_segment' = %d and 'collision_spheres' = %d "
+                "would need %.1f GB, more than the %.1f GB one intestine may take", d->control_count,
+                d->samples_per_segment, d->collision_sphere_count, bytes / 1e9, VSC_MAX_ROD_BYTES / 1e9);
   if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c)) {
     vsc_plugin_config_free(c);
     return -1;

@@ -1,6 +1,10 @@
 // Rod mechanics: the mass matrix, exact energy gradients, gravity, momentum.
 #include <stdlib.h>
 #include <string.h>
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+#include <malloc.h>
+#define HEAP_IN_USE_KNOWN 1  // glibc's own allocator (sanitizers replace it)
+#endif
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_layout.h"
@@ -191,8 +195,46 @@ static void clamp_definitions_are_checked(void) {
   vsc_rod_destroy(rod);
 }
 
+#ifdef HEAP_IN_USE_KNOWN
+static double heap_in_use(void) {
+  struct mallinfo2 info = mallinfo2();
+  return (double)info.uordblks + (double)info.hblkhd;  // small blocks + mmapped blocks
+}
+#endif
+
+// The memory estimate matches what vsc_rod_create allocates, and an absurd
+// definition is refused before any allocation.
+static void memory_is_estimated_and_bounded(void) {
+  vsc_rod_def def = vsc_default_rod_def();
+  int counts[3] = {20, 2000, 20000};
+  for (int c = 0; c < 3; ++c) {
+    def.control_count = counts[c];
+    def.collision_sphere_count = 4 * counts[c];
+    double estimate = vsc_rod_memory_bytes(&def);
+    ENSURE(estimate > 0.0 && estimate < VSC_MAX_ROD_BYTES);
+#ifdef HEAP_IN_USE_KNOWN
+    double before = heap_in_use();
+    vsc_rod* rod = NULL;
+    ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
+    double used = heap_in_use() - before;
+    // malloc headers and page rounding add a little; nothing else may be missing
+    ENSURE(used > 0.0 && estimate >= 0.97 * used && estimate <= 1.05 * used + 8192.0);
+    if (getenv("VSC_TEST_VERBOSE") || !(estimate >= 0.97 * used && estimate <= 1.05 * used + 8192.0))
+      fprintf(stderr, "n = %d: estimate %.0f B, allocated %.0f B\n", counts[c], estimate, used);
+    vsc_rod_destroy(rod);
+#endif
+  }
+  // a million control points with a sphere per 0.1 radius: about 14 GB
+  def.control_count = 1000000;
+  def.collision_sphere_count = VSC_MAX_COLLISION_SPHERES;
+  ENSURE(vsc_rod_memory_bytes(&def) > 1e10);
+  vsc_rod* rod = NULL;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_ERROR_OUT_OF_MEMORY && rod == NULL);
+}
+
 int main(void) {
   RUN(mass_matrix_exact_band7_spd_total);
+  RUN(memory_is_estimated_and_bounded);
   RUN(gradient_matches_central_differences);
   RUN(free_fall_is_exact);
   RUN(pinned_points_do_not_accelerate);

@@ -228,12 +228,21 @@ struct vsc_contact_lists {
   const vsc_geom* geoms;      // the host's geom array at build
 };
 
+// pair capacities per sphere: dense piles hold ~30 neighbouring segments within 2r + m
+#define SELF_PAIRS_PER_SPHERE 64
+#define GEOM_PAIRS_PER_SPHERE 8
+
+double vsc_contact_lists_memory_bytes(int spheres) {
+  return sizeof(vsc_contact_lists) +
+         (double)spheres * (2.0 * sizeof(int) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) + 10.0 * sizeof(double));
+}
+
 vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   vsc_contact_lists* l = (vsc_contact_lists*)calloc(1, sizeof(vsc_contact_lists));
   if (!l) return NULL;
   l->sphere_count = spheres;
-  l->self_capacity = 64 * spheres;  // dense piles hold ~30 neighbouring segments within 2r + m
-  l->geom_capacity = 8 * spheres;
+  l->self_capacity = SELF_PAIRS_PER_SPHERE * spheres;
+  l->geom_capacity = GEOM_PAIRS_PER_SPHERE * spheres;
   l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);

@@ -7,13 +7,24 @@
 
 #define COORDINATE_LIMIT 1.0e9  // cell indices stay far inside int
 
+static int bucket_count(int max_items) {
+  int buckets = 16;
+  while (buckets < 8 * max_items) buckets *= 2;  // about one entry per bucket: short chains, small table
+  return buckets;
+}
+
+double vsc_grid_memory_bytes(int max_items) {
+  double buckets = bucket_count(max_items), entries = 8.0 * max_items;
+  return sizeof(vsc_grid) + buckets * (sizeof(int) + sizeof(unsigned)) + entries * 5.0 * sizeof(int) +
+         (double)max_items * (6.0 * sizeof(double) + sizeof(unsigned));
+}
+
 vsc_status vsc_grid_create(int max_items, vsc_grid** out) {
   *out = NULL;
   if (max_items < 1 || max_items > (1 << 26)) return VSC_ERROR_INVALID_ARGUMENT;
   vsc_grid* g = (vsc_grid*)calloc(1, sizeof(vsc_grid));
   if (!g) return VSC_ERROR_OUT_OF_MEMORY;
-  int buckets = 16;
-  while (buckets < 8 * max_items) buckets *= 2;  // about one entry per bucket: short chains, small table
+  int buckets = bucket_count(max_items);
   g->max_items = max_items;
   g->bucket_mask = buckets - 1;
   g->entry_capacity = 8 * max_items;

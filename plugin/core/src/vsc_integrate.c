@@ -235,7 +235,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
       memcpy(q, start_q, sizeof(double) * size);
       memcpy(v, start_v, sizeof(double) * size);
       if (stick) memcpy(stick, start_stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
-      if (substeps > (1 << 20) / 2) break;
+      if (2 * substeps > VSC_MAX_RETRY_SUBSTEPS) break;
       substeps *= 2;
     }
     if (report) {

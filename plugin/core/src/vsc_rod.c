@@ -122,11 +122,11 @@ static vsc_status factor_mass(vsc_rod* rod) {
 // Transpose the sample basis: control point k depends on the consecutive
 // samples whose window [first, first + 3] contains k.
 static void build_gather(vsc_rod* rod) {
-  int n = rod->n, N = rod->sample_count, offset = 0;
+  int n = rod->n, N = rod->sample_count, offset = 0, a0 = 0;
   rod->gather_count = rod->gather_first + n;
   rod->gather_offset = rod->gather_first + 2 * n;
   for (int k = 0; k < n; ++k) {
-    int a0 = 0;
+    // windows' first points rise with the sample, so a0 only moves forward: O(N) in all
     while (rod->sample_basis[a0].first + VSC_SPLINE_SUPPORT - 1 < k) ++a0;
     int a1 = a0;
     while (a1 + 1 < N && rod->sample_basis[a1 + 1].first <= k) ++a1;
@@ -140,10 +140,33 @@ static void build_gather(vsc_rod* rod) {
   }
 }
 
+// Bound on the Jacobian's half-bandwidth (scalars), for the memory estimate:
+// samples two apart span at most 3 + ceil(2 / S) control points.
+static int jacobian_half_width_bound(int samples_per_segment) {
+  return 3 * (3 + (2 + samples_per_segment - 1) / samples_per_segment) + 2;
+}
+
+double vsc_rod_memory_bytes(const vsc_rod_def* def) {
+  double n = def->control_count, S = def->samples_per_segment, N = (n - 1.0) * S + 1.0;
+  double spheres = def->collision_sphere_count;
+  double tethers = def->mesentery_points > 0 ? def->mesentery_points : 1;
+  double per_sample = sizeof(vsc_basis) + 10.0 * sizeof(double) + 27.0 * sizeof(double);
+  double per_point = 9.0 * sizeof(double) + 1.0 + 3.0 * sizeof(int) + (4.0 * S + 1.0) * sizeof(double) +
+                     24.0 * sizeof(double) + 6.0 * sizeof(double) +
+                     3.0 * (jacobian_half_width_bound(def->samples_per_segment) + 1.0) * sizeof(double);
+  double per_sphere = sizeof(vsc_basis) + 6.0 * sizeof(double) + (VSC_STICK_SIZE + VSC_TOUCH_SIZE) * sizeof(double);
+  double bytes = sizeof(vsc_rod) + N * per_sample + n * per_point + spheres * per_sphere +
+                 tethers * sizeof(vsc_basis) + (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
+  if (spheres >= 1.0 && spheres <= (double)VSC_MAX_COLLISION_SPHERES)
+    bytes += vsc_grid_memory_bytes((int)spheres) + vsc_contact_lists_memory_bytes((int)spheres);
+  return bytes;
+}
+
 vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   *out = NULL;
   vsc_status status = validate(def);
   if (status != VSC_OK) return status;
+  if (vsc_rod_memory_bytes(def) > VSC_MAX_ROD_BYTES) return VSC_ERROR_OUT_OF_MEMORY;
   vsc_rod* rod = (vsc_rod*)calloc(1, sizeof(vsc_rod));
   if (!rod) return VSC_ERROR_OUT_OF_MEMORY;
   int n = def->control_count, spheres = def->collision_sphere_count, S = def->samples_per_segment;

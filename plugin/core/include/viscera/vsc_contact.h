@@ -59,6 +59,9 @@
 vsc_contact_lists* vsc_contact_lists_create(int sphere_count);
 void vsc_contact_lists_destroy(vsc_contact_lists* lists);
 
+/// Heap bytes vsc_contact_lists_create(sphere_count) allocates.
+double vsc_contact_lists_memory_bytes(int sphere_count);
+
 /// Write the "no contact" friction state for every sphere (VSC_STICK_SIZE each).
 void vsc_stick_clear(double* stick, int sphere_count);
 

@@ -43,6 +43,9 @@ typedef struct vsc_grid {
 vsc_status vsc_grid_create(int max_items, vsc_grid** out);
 void vsc_grid_destroy(vsc_grid* grid);
 
+/// Heap bytes vsc_grid_create(max_items) allocates.
+double vsc_grid_memory_bytes(int max_items);
+
 /// Start a pass with cells of side `cell` (m, > 0): O(1).
 void vsc_grid_begin(vsc_grid* grid, double cell);
 

@@ -28,6 +28,10 @@ typedef enum vsc_integrator {
 /// this (m/s): nothing in a surgical scene does.
 #define VSC_DIVERGED_SPEED 100.0
 
+/// Retries stop doubling the substeps past this many per step, so that a step
+/// that cannot hold costs a bounded time (about 2 x this many substeps).
+#define VSC_MAX_RETRY_SUBSTEPS 1024
+
 /// How vsc_rod_step integrates and when it calls a step diverged.
 typedef struct vsc_step_options {
   vsc_integrator integrator;
@@ -59,7 +63,8 @@ typedef struct vsc_step_report {
 /// than VSC_DIVERGED_SPEED, or its factorisation fails; a step diverges when
 /// one of its substeps does or its energy (kinetic + elastic + gravity) jumps
 /// past the options' bound. A diverged step is retried from its start with
-/// twice the substeps, up to options->retries times; VSC_OK is returned if an
+/// twice the substeps, up to options->retries times and VSC_MAX_RETRY_SUBSTEPS
+/// substeps; VSC_OK is returned if an
 /// attempt held (report->retries > 0 then says it was recovered). If none
 /// held, q and the friction state are restored to the step start, v is zeroed,
 /// reactions are zeroed and VSC_ERROR_DIVERGED is returned. Either way the

@@ -80,6 +80,11 @@ typedef struct vsc_rod_def {
 #define VSC_MAX_CONTROL_POINTS 1000000
 #define VSC_MAX_SAMPLES 10000000          ///< (control points - 1) x samples per segment + 1
 #define VSC_MAX_COLLISION_SPHERES 10000000
+/// Most heap one rod may take (bytes): 2 GiB, 2.7 million control points at the
+/// default resolution. Larger definitions are refused before anything is
+/// allocated, so an absurd request fails with a message instead of the
+/// kernel's OOM killer (Linux overcommits: malloc rarely returns NULL).
+#define VSC_MAX_ROD_BYTES 2147483648.0
 
 /// Defaults: a 4 m, 250-point, 12.5 mm-radius intestine of density 1000 kg/m^3,
 /// stiffnesses 10, 1 and 200 N/m (the plugin scales the first two as
@@ -148,6 +153,12 @@ typedef struct vsc_rod {
 /// Validate `def` and build a rod. On success *out owns a new rod (release
 /// with vsc_rod_destroy); on failure *out is NULL.
 vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out);
+
+/// Heap bytes vsc_rod_create would allocate for `def` (its arrays, the sphere
+/// grid and the contact lists), from the same sizes it allocates. Returned as
+/// a double so that no product overflows. vsc_rod_create refuses a definition
+/// above VSC_MAX_ROD_BYTES with VSC_ERROR_OUT_OF_MEMORY.
+double vsc_rod_memory_bytes(const vsc_rod_def* def);
 
 /// Release a rod created by vsc_rod_create (NULL is allowed).
 void vsc_rod_destroy(vsc_rod* rod);
