@@ -45,7 +45,9 @@ CASES = {
     "deepcopy_and_dm_control_physics": """
         from dm_control import mujoco as dm_mujoco
         c = copy.deepcopy(d)
-        step(c, 10)
+        step(c, 30); step(d, 30)
+        assert np.array_equal(gut.positions(c), gut.positions(d))
+        assert np.array_equal(c.plugin_state, d.plugin_state)
         physics = dm_mujoco.Physics.from_xml_string(xml)
         for _ in range(20): physics.step()
         twin = pickle.loads(pickle.dumps(physics))
@@ -55,6 +57,26 @@ CASES = {
         del physics
         twin.reset()
         for _ in range(5): twin.step()
+    """,
+    "cavity_task_physics_copies": """
+        import viscera.tasks
+        env = viscera.tasks.load("clear_area", seed=0)
+        spec = env.action_spec(); rng = np.random.default_rng(0)
+        env.reset()
+        for _ in range(10): env.step(rng.uniform(spec.minimum, spec.maximum))
+        physics = env.physics
+        twins = [physics.copy(share_model=True), physics.copy(share_model=False), copy.deepcopy(physics),
+                 pickle.loads(pickle.dumps(physics))]
+        actions = rng.uniform(spec.minimum, spec.maximum, (60, spec.shape[0]))
+        for action in actions:
+            for p in [physics] + twins:
+                p.set_control(action); p.step()
+        for twin in twins:
+            assert np.array_equal(twin.data.plugin_state, physics.data.plugin_state)
+            assert np.array_equal(twin.data.qpos, physics.data.qpos)
+        del twins[1], physics
+        for twin in twins:
+            twin.step()
     """,
 }
 
