@@ -198,7 +198,7 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
   for (int i = 0; i < 3; ++i) c->direction[i] /= norm;
   if (read_vector(r, "box", 6, no_box, c->box)) return -1;
   if (c->shape == VSC_SHAPE_SERPENTINE) {
-    if (!raw(r, "box")) return fail(r, "attribute 'box' is required by shape 'serpentine' (6 numbers, m)");
+    if (!raw(r, "box")) return fail(r, "attribute 'box' is required by 'shape' = 'serpentine' (6 numbers, m)");
     for (int i = 0; i < 3; ++i)
       if (!(c->box[3 + i] > c->box[i])) return fail(r, "attribute 'box' = '%s' must give min then max corners", raw(r, "box"));
     double capacity = vsc_layout_serpentine_capacity(c->rod.radius, c->box);
@@ -210,7 +210,7 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
   c->point_count = 0;
   const char* points = raw(r, "points");
   if (c->shape == VSC_SHAPE_POLYLINE || c->shape == VSC_SHAPE_CONTROL_POINTS) {
-    if (!points) return fail(r, "attribute 'points' is required by shape '%s' (3k numbers, m)", raw(r, "shape"));
+    if (!points) return fail(r, "attribute 'points' is required by 'shape' = '%s' (3k numbers, m)", raw(r, "shape"));
     int got = parse_numbers(points, NULL, MAX_NUMBERS);
     if (got < 0) return fail(r, "attribute 'points' must be finite numbers (at most %d)", MAX_NUMBERS);
     c->points = (double*)malloc(sizeof(double) * (size_t)(got > 0 ? got : 1));

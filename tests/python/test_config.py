@@ -66,6 +66,11 @@ BAD = [
     ({"length": "10000", "radius": "1e-6"}, ["length", "radius", "collision_spheres"]),
     ({"density": "1e308"}, ["density", "non-finite mass"]),
     ({"shape": "serpentine", "radius": "1e-12", "collision_spheres": "100", "box": "0 0 0 1 1 1"}, ["box"]),
+    # absurd resources: refused before any allocation, with the keys that ask for them
+    ({"control_points": "1000000000"}, ["control_points", "1000000000", "at most"]),
+    ({"control_points": "1000000", "samples_per_segment": "10"},
+     ["control_points", "samples_per_segment", "collision_spheres", "GB", "more than the 2.1 GB"]),
+    ({"collision_spheres": "10000000"}, ["collision_spheres", "10000000", "GB"]),
 ]
 
 
@@ -100,6 +105,16 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.sphere_count == 321  # 4 m / 12.5 mm + 1: spaced one radius apart
     # positions, velocities, divergence count, a wrench per body, friction state per sphere
     assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321
+
+
+def test_a_million_control_points_load():
+    """The largest accepted resolution loads and steps (its gather table was once built in O(n^2): hours)."""
+    import viscera
+    model = mujoco.MjModel.from_xml_string(scene_xml(control_points=1_000_000, length=4000.0))
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data)
+    gut = viscera.intestine(model, "gut")
+    assert gut.control_count == 1_000_000 and np.isfinite(gut.positions(data)).all()
 
 
 def test_state_size_mismatch_fails_data_creation_instead_of_overflowing():
