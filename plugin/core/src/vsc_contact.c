@@ -266,11 +266,40 @@ void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   free(l);
 }
 
-static int compare_pairs(const void* a, const void* b) {
-  const int* x = (const int*)a;
-  const int* y = (const int*)b;
-  if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
-  return x[1] < y[1] ? -1 : (x[1] > y[1] ? 1 : 0);
+// Pairs are sorted so that the force sum runs in one order whatever the grid's
+// hash order: results do not depend on bucket layout. Heap sort, in place: the
+// C library's qsort mallocs a buffer for more than 1 KB of pairs, and the step
+// loop must not touch the heap.
+static int pair_less(const int* pairs, int a, int b) {
+  const int *x = pairs + 2 * a, *y = pairs + 2 * b;
+  return x[0] < y[0] || (x[0] == y[0] && x[1] < y[1]);
+}
+
+static void swap_pairs(int* pairs, int a, int b) {
+  int first = pairs[2 * a], second = pairs[2 * a + 1];
+  pairs[2 * a] = pairs[2 * b];
+  pairs[2 * a + 1] = pairs[2 * b + 1];
+  pairs[2 * b] = first;
+  pairs[2 * b + 1] = second;
+}
+
+static void sift_down(int* pairs, int root, int count) {
+  for (;;) {
+    int child = 2 * root + 1;
+    if (child >= count) return;
+    if (child + 1 < count && pair_less(pairs, child, child + 1)) ++child;
+    if (!pair_less(pairs, root, child)) return;
+    swap_pairs(pairs, root, child);
+    root = child;
+  }
+}
+
+static void sort_pairs(int* pairs, int count) {
+  for (int root = count / 2 - 1; root >= 0; --root) sift_down(pairs, root, count);
+  for (int end = count - 1; end > 0; --end) {
+    swap_pairs(pairs, 0, end);
+    sift_down(pairs, 0, end);
+  }
 }
 
 typedef struct build {
@@ -347,7 +376,7 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
     }
     vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
   }
-  qsort(l->self_pairs, (size_t)l->self_count, 2 * sizeof(int), compare_pairs);
+  sort_pairs(l->self_pairs, l->self_count);
   memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   l->self_built = !b.overflow;
   return l->self_built;
@@ -388,7 +417,7 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
     }
     if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
       for (int i = 0; i < spheres; ++i) collect_geom(&b, i);
-    qsort(l->geom_pairs + 2 * first, (size_t)(l->geom_count - first), 2 * sizeof(int), compare_pairs);
+    sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
   }
   memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
