@@ -73,7 +73,6 @@ class RandomSurgeon:
         self.low, self.high = low + TIP_MARGIN, high - TIP_MARGIN
         self.ctrl_low, self.ctrl_high = self.model.actuator_ctrlrange.T.copy()
         self.joint_qpos = self.model.jnt_qposadr[self.model.actuator_trnid[:, 0]]
-        self.tips = self._tip_points  # the points a target must keep inside
         self.command = physics.data.ctrl.copy()
         self.target = self.command.copy()
         self.next_change = np.zeros(self.model.nu)
