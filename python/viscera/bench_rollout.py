@@ -45,6 +45,8 @@ def batch_inputs(model: mujoco.MjModel, batch: int, steps: int, seed: int = 0):
         q = gut.positions(data)
         q += rng.normal(0.0, 0.002, 3) * np.sin(np.linspace(0.0, np.pi, len(q)) * rng.integers(1, 4))[:, None]
         mujoco.mj_getState(model, data, initial[b], FULLPHYSICS)
+    if model.nu == 0:
+        return initial, np.zeros((batch, steps, 0))
     low, high = model.actuator_ctrlrange.T
     knots = rng.uniform(low, high, (batch, 5, model.nu))
     t = np.linspace(0.0, 4.0, steps)

@@ -14,6 +14,7 @@ import pytest
 from mujoco import rollout
 
 import viscera
+from viscera.bench_rollout import batch_inputs  # bent intestines, smooth tool controls
 from viscera.tasks import clear_area
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -41,33 +42,10 @@ def positions(model, state):
     return viscera.intestine(model).positions(data).copy()
 
 
-def perturbed_states(model, count, rng, gut):
-    data = mujoco.MjData(model)
-    states = np.empty((count, mujoco.mj_stateSize(model, FULLPHYSICS)))
-    for i in range(count):
-        mujoco.mj_resetData(model, data)
-        q = gut.positions(data)
-        along = np.linspace(0.0, np.pi, len(q))[:, None]
-        q[:] += rng.normal(0.0, 0.002, 3) * np.sin(along * rng.integers(1, 4))  # a smooth bend, ends fixed
-        mujoco.mj_getState(model, data, states[i], FULLPHYSICS)
-    return states
-
-
-def tool_controls(model, batch, steps, rng):
-    """Slowly varying targets inside each actuator's control range."""
-    low, high = model.actuator_ctrlrange.T
-    knots = rng.uniform(low, high, (batch, 4, model.nu))
-    t = np.linspace(0.0, 3.0, steps)
-    return np.stack([np.stack([np.interp(t, np.arange(4), knots[b, :, u]) for u in range(model.nu)], axis=1)
-                     for b in range(batch)])
-
-
 def test_cavity_scene_on_two_threads_is_bit_identical_to_serial():
     """Six perturbed abdomens, tools moving, on two threads sharing one model."""
     model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
-    rng = np.random.default_rng(1)
-    initial = perturbed_states(model, 6, rng, viscera.intestine(model))
-    controls = tool_controls(model, 6, 60, rng)
+    initial, controls = batch_inputs(model, 6, 60, seed=1)
     threaded, sensors = rollout.rollout(model, [mujoco.MjData(model) for _ in range(2)], initial, controls)
     expected = serial([model] * 6, initial, controls)
     np.testing.assert_array_equal(threaded, expected)
@@ -92,8 +70,7 @@ def config_models():
 def test_models_of_different_configs_on_two_threads_match_serial():
     models = config_models()
     assert len({m.plugin_attr.tobytes() for m in models}) == 3
-    rng = np.random.default_rng(2)
-    initial = np.concatenate([perturbed_states(m, 2, rng, viscera.intestine(m)) for m in models])
+    initial = np.concatenate([batch_inputs(m, 2, 200, seed=2)[0] for m in models])
     batch_models = [m for m in models for _ in range(2)]
     controls = np.zeros((6, 200, 0))
     threaded, _ = rollout.rollout(batch_models, [mujoco.MjData(models[0]) for _ in range(2)], initial, controls)
@@ -107,8 +84,7 @@ def test_models_of_different_configs_on_two_threads_match_serial():
 @pytest.mark.parametrize("threads", [1, 2, 3])
 def test_thread_count_does_not_change_results(threads):
     models = config_models()
-    rng = np.random.default_rng(3)
-    initial = perturbed_states(models[1], 5, rng, viscera.intestine(models[1]))
+    initial, _ = batch_inputs(models[1], 5, 80, seed=3)
     reference, _ = rollout.rollout(models[1], mujoco.MjData(models[1]), initial, nstep=80)
     threaded, _ = rollout.rollout(models[1], [mujoco.MjData(models[1]) for _ in range(threads)], initial, nstep=80,
                                   chunk_size=1)
