@@ -6,8 +6,8 @@ A batch of abdomen scenes (the task's scene, tools moving on smooth random
 controls, each from a slightly bent intestine) is stepped three ways in the
 same process, on the same initial states and controls:
   - python loop: mj_step on one MjData per batch entry, from Python (the peer);
-  - rollout, k threads: mujoco.rollout with k MjData sharing one MjModel
-    (the GIL is released; the plugin keeps no globals, so threads scale).
+  - rollout, k threads: viscera.batch.BatchStepper (mujoco.rollout with k MjData
+    sharing one MjModel; the GIL is released; the plugin keeps no globals, so threads scale).
 The results of every threaded run are checked bit-identical to the serial
 rollout's. Reported, medians over runs: physics steps per second, the speed-up
 over one thread and the efficiency (speed-up / threads). The machine's core
@@ -26,9 +26,9 @@ import viscera  # first: headless GL backend
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
-from mujoco import rollout  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from viscera.batch import BatchStepper  # noqa: E402
 from viscera.tasks import clear_area  # noqa: E402
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -82,10 +82,10 @@ def measure(batch: int = 8, steps: int = 250, runs: int = 5, thread_counts=(1, 2
             timings["python loop"].append(time.perf_counter() - start)
             bar.update()
             for k in thread_counts:
-                datas = [mujoco.MjData(model) for _ in range(k)]
-                start = time.perf_counter()
-                states, _ = rollout.rollout(model, datas, initial, controls, chunk_size=1)
-                timings[f"rollout, {k} thread{'s' if k > 1 else ''}"].append(time.perf_counter() - start)
+                with BatchStepper(model, threads=k) as stepper:
+                    start = time.perf_counter()
+                    states = stepper.step(initial, controls, chunk_size=1).state
+                    timings[f"rollout, {k} thread{'s' if k > 1 else ''}"].append(time.perf_counter() - start)
                 if reference is None:
                     reference = states
                 identical &= bool(np.array_equal(states, reference))

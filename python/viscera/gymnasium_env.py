@@ -1,0 +1,129 @@
+"""The viscera tasks behind the gymnasium interface, with dm_env's semantics kept exact.
+
+    import gymnasium as gym
+    env = gym.make("viscera/ClearArea-v0")            # registered when this module is imported
+    env = viscera.gymnasium_env.TaskEnv("clear_area", seed=0)
+
+A thin adapter of ours rather than shimmy's DmControlCompatibilityV0: shimmy
+imports gymnasium's MuJoCo renderer (imageio, GLFW) on import, re-seeds a
+RandomState the dm_control task never reads, and offers only dict observations,
+which CleanRL-style loops cannot batch into one tensor. Here:
+
+- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s) does),
+  then returns the FIRST time step's observation; info carries step_type and discount.
+- step returns the dm_env reward (float), and ends an episode exactly as dm_env
+  does: a LAST step with discount 0 is `terminated` (the task ended it: the area is
+  clear), a LAST step with discount > 0 is `truncated` (the time limit). Stepping
+  past the end raises; dm_env would silently start a new episode instead.
+- Observations are flat float64 vectors, the dm_env observation entries in the
+  task's order (`observation_layout` gives each key's slice and shape); with
+  flatten=False they are a gymnasium Dict of the same arrays. Nothing is cast,
+  clipped or rescaled: values are bit-identical to the dm_env time step's.
+- Actions are the dm_env action (the tools' actuator controls, in the action
+  spec's bounds); out-of-range values are clamped by MuJoCo, as under dm_env.
+"""
+
+from __future__ import annotations
+
+import collections
+
+import gymnasium
+import numpy as np
+from dm_env import specs
+
+import viscera.tasks
+
+ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
+
+
+def _box(spec) -> gymnasium.spaces.Box:
+    if isinstance(spec, specs.BoundedArray):
+        low = np.broadcast_to(spec.minimum, spec.shape).astype(spec.dtype)
+        high = np.broadcast_to(spec.maximum, spec.shape).astype(spec.dtype)
+        return gymnasium.spaces.Box(low, high, spec.shape, spec.dtype)
+    return gymnasium.spaces.Box(-np.inf, np.inf, spec.shape, spec.dtype)
+
+
+class TaskEnv(gymnasium.Env):
+    """One viscera task (a dm_env.Environment) as a gymnasium.Env; see the module doc."""
+
+    metadata = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool = True,
+                 render_mode: str | None = None, render_size: tuple[int, int] = (240, 320), **task_kwargs):
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
+        self.task_name = task
+        self.dm_env = viscera.tasks.load(task, seed=seed, **task_kwargs)
+        self.flatten = flatten
+        self.render_mode = render_mode
+        self.render_size = render_size  # (height, width) in pixels
+        self.metadata = dict(self.metadata, render_fps=1.0 / self.dm_env.control_timestep())
+        observation_spec = self.dm_env.observation_spec()
+        self.observation_layout = collections.OrderedDict()
+        start = 0
+        for key, spec in observation_spec.items():
+            size = int(np.prod(spec.shape))
+            self.observation_layout[key] = (slice(start, start + size), spec.shape)
+            start += size
+        if flatten:
+            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (start,), np.float64)
+        else:
+            self.observation_space = gymnasium.spaces.Dict(
+                collections.OrderedDict((key, _box(spec)) for key, spec in observation_spec.items()))
+        self.action_space = _box(self.dm_env.action_spec())
+        self._episode_over = True
+
+    def observation(self, dm_observation) -> np.ndarray | dict:
+        """The gymnasium observation of a dm_env observation (flat: the entries concatenated in order)."""
+        if not self.flatten:
+            return collections.OrderedDict((k, np.asarray(v)) for k, v in dm_observation.items())
+        return np.concatenate([np.asarray(dm_observation[key], dtype=np.float64).ravel()
+                               for key in self.observation_layout])
+
+    def unflatten(self, observation: np.ndarray) -> dict:
+        """The per-key arrays of a flat observation (views; also works on a batch, last axis flat)."""
+        lead = observation.shape[:-1]
+        return {key: observation[..., part].reshape(lead + shape)
+                for key, (part, shape) in self.observation_layout.items()}
+
+    @staticmethod
+    def _info(time_step) -> dict:
+        return {"step_type": int(time_step.step_type), "discount": time_step.discount}
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            # the dm_control task draws its episode randomness from this RandomState
+            self.dm_env.task._random = np.random.RandomState(seed)
+        time_step = self.dm_env.reset()
+        self._episode_over = False
+        return self.observation(time_step.observation), self._info(time_step)
+
+    def step(self, action):
+        if self._episode_over:
+            raise RuntimeError("step() after the episode ended (or before reset()): call reset() first")
+        time_step = self.dm_env.step(action)
+        terminated = truncated = False
+        if time_step.last():
+            self._episode_over = True
+            terminated = time_step.discount == 0.0
+            truncated = not terminated
+        return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated,
+                self._info(time_step))
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            height, width = self.render_size
+            return self.dm_env.physics.render(height=height, width=width)
+        return None
+
+
+def register() -> None:
+    """Register the gymnasium ids of ENV_IDS (idempotent)."""
+    for task, env_id in ENV_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=TaskEnv, kwargs={"task": task})
+
+
+register()
