@@ -32,6 +32,7 @@ import numpy as np
 from dm_env import specs
 
 import viscera.tasks
+from viscera import observations
 
 ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
 
@@ -60,14 +61,10 @@ class TaskEnv(gymnasium.Env):
         self.render_size = render_size  # (height, width) in pixels
         self.metadata = dict(self.metadata, render_fps=1.0 / self.dm_env.control_timestep())
         observation_spec = self.dm_env.observation_spec()
-        self.observation_layout = collections.OrderedDict()
-        start = 0
-        for key, spec in observation_spec.items():
-            size = int(np.prod(spec.shape))
-            self.observation_layout[key] = (slice(start, start + size), spec.shape)
-            start += size
+        self.observation_layout = observations.layout(observation_spec)
         if flatten:
-            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (start,), np.float64)
+            size = observations.size(self.observation_layout)
+            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
         else:
             self.observation_space = gymnasium.spaces.Dict(
                 collections.OrderedDict((key, _box(spec)) for key, spec in observation_spec.items()))
@@ -78,14 +75,11 @@ class TaskEnv(gymnasium.Env):
         """The gymnasium observation of a dm_env observation (flat: the entries concatenated in order)."""
         if not self.flatten:
             return collections.OrderedDict((k, np.asarray(v)) for k, v in dm_observation.items())
-        return np.concatenate([np.asarray(dm_observation[key], dtype=np.float64).ravel()
-                               for key in self.observation_layout])
+        return observations.flatten(dm_observation, self.observation_layout)
 
     def unflatten(self, observation: np.ndarray) -> dict:
         """The per-key arrays of a flat observation (views; also works on a batch, last axis flat)."""
-        lead = observation.shape[:-1]
-        return {key: observation[..., part].reshape(lead + shape)
-                for key, (part, shape) in self.observation_layout.items()}
+        return observations.unflatten(observation, self.observation_layout)
 
     @staticmethod
     def _info(time_step) -> dict:

@@ -1,0 +1,93 @@
+"""viscera.scale.collect: every backend returns the serial trajectories, bit for bit, in seed order."""
+
+import numpy as np
+import pytest
+import ray
+
+from viscera import scale
+
+SEEDS = [5, 2, 9]  # not sorted: the order given is the order returned
+STEPS = 12
+SHORT = {"time_limit": 0.2}  # 10 control steps of 0.02 s: episodes end inside some collections
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return scale.collect("clear_area", SEEDS, STEPS, workers=1, backend="serial")
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+def assert_same(trajectories, reference):
+    assert [t.seed for t in trajectories] == SEEDS
+    for got, want in zip(trajectories, reference):
+        assert got.same_as(want), got.seed
+
+
+def test_serial_trajectories_are_episodes_of_their_seeds(serial):
+    assert [t.seed for t in serial] == SEEDS
+    first = serial[0]
+    observations, actions, rewards = first  # unpacks as the issue's triple
+    assert observations.shape == (STEPS + 1, 422) and actions.shape == (STEPS, 9) and rewards.shape == (STEPS,)
+    assert np.all(first.discounts == 1.0) and not first.ended
+    # every episode starts from the same reset, then the seeds' policies differ
+    assert all(np.array_equal(t.observations[0], first.observations[0]) for t in serial)
+    assert not np.array_equal(serial[0].actions, serial[1].actions)
+    assert not np.array_equal(serial[0].observations[-1], serial[1].observations[-1])
+    # the observation entries are where the layout says: tool joints moved toward the commanded actions
+    joints = first.observation("tool_joints")
+    assert joints.shape == (STEPS + 1, 9)
+    assert np.abs(joints[-1] - joints[0]).max() > 1e-3
+    assert np.all((rewards >= 0.0) & (rewards <= 1.0))
+
+
+@pytest.mark.parametrize("backend, workers", [("threads", 2), ("threads", 3), ("processes", 2)])
+def test_local_backends_equal_serial(serial, backend, workers):
+    assert_same(scale.collect("clear_area", SEEDS, STEPS, workers=workers, backend=backend), serial)
+
+
+def test_two_ray_actors_equal_serial(serial, local_ray):
+    assert_same(scale.collect("clear_area", SEEDS, STEPS, workers=2, backend="ray"), serial)
+
+
+def test_ray_refuses_more_actors_than_cpus(local_ray):
+    with pytest.raises(ValueError, match=r"workers = 3 .* needs 3 CPUs; the Ray cluster has 2"):
+        scale.make_collector("ray", "clear_area", workers=3)
+
+
+def test_a_collector_reuses_its_workers_and_episodes_end_at_the_time_limit():
+    """A second collection on the same workers (envs reset, reseeded) equals a fresh one; short episodes stop."""
+    with scale.make_collector("threads", "clear_area", workers=2, task_kwargs=SHORT) as collector:
+        collector.collect([0, 1, 2, 3], 4)
+        again = collector.collect(SEEDS, STEPS)
+    fresh = scale.collect("clear_area", SEEDS, STEPS, workers=1, backend="serial", **SHORT)
+    assert_same(again, fresh)
+    for trajectory in again:
+        assert trajectory.ended and trajectory.steps == 10  # 0.2 s / 0.02 s, then no more actions
+        assert trajectory.observations.shape[0] == 11 and trajectory.discounts[-1] == 1.0  # time limit, not task
+
+
+def test_the_scripted_gesture_collects_the_same_everywhere():
+    serial = scale.collect("clear_area", [0, 1], 6, backend="serial", policy="gesture")
+    threaded = scale.collect("clear_area", [0, 1], 6, workers=2, backend="threads", policy="gesture")
+    assert all(a.same_as(b) for a, b in zip(serial, threaded))
+    assert np.array_equal(serial[0].actions, serial[1].actions)  # the gesture ignores the seed
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"backend": "gpu"}, r"backend = 'gpu': must be one of \('serial', 'threads', 'processes', 'ray'\)"),
+    ({"workers": 0}, r"workers = 0: must be at least 1"),
+    ({"task": "appendectomy"}, r"task = 'appendectomy': must be one of \('clear_area',\)"),
+    ({"policy": "greedy"}, r"policy = 'greedy': must be one of \('random', 'gesture'\)"),
+    ({"seeds": [1, 2, 1]}, r"seeds repeat: \[1\]"),
+    ({"steps": -1}, r"steps = -1: must be at least 0"),
+])
+def test_refuses_bad_arguments_by_name(kwargs, message):
+    arguments = {"task": "clear_area", "seeds": [0], "steps": 1, "workers": 1, "backend": "threads"} | kwargs
+    with pytest.raises(ValueError, match=message):
+        scale.collect(**arguments)

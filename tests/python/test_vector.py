@@ -1,0 +1,133 @@
+"""The gymnasium adapter keeps dm_env's semantics exactly; every vector backend steps identically."""
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import viscera
+from viscera import gymnasium_env, vector
+
+SHORT = {"time_limit": 0.1}  # 5 control steps: autoreset happens inside the tests
+
+
+def test_passes_gymnasium_checks_and_is_registered():
+    env = gymnasium_env.TaskEnv("clear_area", seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # advice (unbounded observations, unnormalised actions), not errors
+        check_env(env, skip_render_check=True)
+    made = gym.make("viscera/ClearArea-v0")
+    assert made.observation_space == env.observation_space and made.action_space == env.action_space
+    low, high = env.action_space.low, env.action_space.high
+    spec = env.dm_env.action_spec()
+    assert np.array_equal(low, spec.minimum) and np.array_equal(high, spec.maximum)
+
+
+def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
+    env = gymnasium_env.TaskEnv("clear_area", seed=3, flatten=True)
+    reference = viscera.tasks.load("clear_area", seed=3)
+    observation, info = env.reset(seed=3)
+    time_step = reference.reset()
+    assert info == {"step_type": 0, "discount": None}
+    rng = np.random.default_rng(0)
+    for _ in range(4):
+        parts = env.unflatten(observation)
+        for key, value in time_step.observation.items():
+            assert np.array_equal(parts[key], value), key
+        action = rng.uniform(env.action_space.low, env.action_space.high)
+        observation, reward, terminated, truncated, info = env.step(action)
+        time_step = reference.step(action)
+        assert reward == time_step.reward and not (terminated or truncated)
+        assert info == {"step_type": 1, "discount": 1.0}
+    nested = gymnasium_env.TaskEnv("clear_area", seed=3, flatten=False)
+    assert list(nested.observation_space.spaces) == list(reference.observation_spec())
+
+
+def test_time_limit_truncates_and_the_task_terminates(monkeypatch):
+    env = gymnasium_env.TaskEnv("clear_area", seed=0, **SHORT)
+    env.reset()
+    flags = [env.step(env.action_space.low)[2:4] for _ in range(5)]
+    assert flags == [(False, False)] * 4 + [(False, True)]  # dm_env: LAST with discount 1
+    with pytest.raises(RuntimeError, match="call reset"):
+        env.step(env.action_space.low)
+    env.reset()
+    # the task ends the episode (dm_env: LAST with discount 0): terminated, not truncated
+    monkeypatch.setattr(env.dm_env.task, "get_termination", lambda physics: 0.0)
+    _, _, terminated, truncated, info = env.step(env.action_space.low)
+    assert (terminated, truncated, info["discount"]) == (True, False, 0.0)
+
+
+def run(envs, steps=12, seed=7):
+    """Observations, rewards, flags and info over `steps` random steps, autoreset included."""
+    rng = np.random.default_rng(seed)
+    space = envs.single_action_space
+    record = list(envs.reset(seed=seed))
+    for _ in range(steps):
+        record += envs.step(rng.uniform(space.low, space.high, (envs.num_envs,) + space.shape))
+    envs.close()
+    return record
+
+
+def assert_same(record, reference):
+    assert len(record) == len(reference)
+    for got, want in zip(record, reference):
+        if isinstance(want, dict):  # infos: the same keys and values, batched by gymnasium
+            assert got.keys() == want.keys()
+            for key in want:
+                assert np.asarray(got[key]).tolist() == np.asarray(want[key]).tolist(), key
+        else:
+            assert np.array_equal(got, want)
+
+
+@pytest.fixture(scope="module")
+def serial_record():
+    return run(vector.make("clear_area", num_envs=3, seed=7, backend="serial", **SHORT))
+
+
+@pytest.mark.parametrize("backend, workers", [("threads", 2), ("threads", 3), ("processes", None)])
+def test_backends_equal_the_serial_vector_env(serial_record, backend, workers):
+    envs = vector.make("clear_area", num_envs=3, seed=7, backend=backend, workers=workers, **SHORT)
+    record = run(envs)
+    assert_same(record, serial_record)
+    truncations = np.array([r for r in record[2:] if isinstance(r, np.ndarray) and r.dtype == bool])
+    assert truncations.any()  # the run crossed an autoreset
+
+
+def test_same_step_autoreset_matches_gymnasium():
+    fns = [lambda i=i: gymnasium_env.TaskEnv("clear_area", seed=i, **SHORT) for i in range(2)]
+    reference = run(gym.vector.SyncVectorEnv(fns, autoreset_mode="SameStep"), steps=5)  # the 5th step ends
+    record = run(vector.ThreadVectorEnv(fns, workers=2, autoreset_mode="SameStep"), steps=5)
+    assert "final_obs" in reference[-1]
+    assert_same([r for r in record if not isinstance(r, dict)], [r for r in reference if not isinstance(r, dict)])
+    assert np.array_equal(np.stack(record[-1]["final_obs"]), np.stack(reference[-1]["final_obs"]))
+
+
+def test_cleanrl_style_loop_records_episode_returns():
+    """The loop of CleanRL's ppo_continuous_action: vector env, RecordEpisodeStatistics, next-step autoreset."""
+    envs = gym.wrappers.vector.RecordEpisodeStatistics(
+        vector.make("clear_area", num_envs=2, seed=1, backend="threads", **SHORT))
+    assert envs.single_observation_space.shape == (422,) and envs.single_action_space.shape == (9,)
+    observation, _ = envs.reset(seed=1)
+    returns = np.zeros(2)
+    episodes = []
+    for _ in range(5):
+        action = np.clip(np.zeros((2, 9)), envs.single_action_space.low, envs.single_action_space.high)
+        observation, reward, terminated, truncated, info = envs.step(action)
+        returns += reward
+        if "episode" in info:
+            episodes.append(info["episode"]["r"][info["_episode"]])
+    envs.close()
+    assert len(episodes) == 1 and np.allclose(episodes[0], returns)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"backend": "gpu"}, r"backend = 'gpu': must be one of \('serial', 'threads', 'processes'\)"),
+    ({"num_envs": 0}, r"num_envs = 0: must be at least 1"),
+    ({"backend": "processes", "workers": 2}, r"workers = 2: only the 'threads' backend takes it"),
+    ({"workers": 0}, r"workers = 0: must be at least 1"),
+])
+def test_refuses_bad_arguments_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        vector.make("clear_area", **({"num_envs": 1} | kwargs))
