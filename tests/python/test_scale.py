@@ -1,5 +1,9 @@
 """viscera.scale.collect: every backend returns the serial trajectories, bit for bit, in seed order."""
 
+import subprocess
+import sys
+import textwrap
+
 import numpy as np
 import pytest
 import ray
@@ -55,6 +59,13 @@ def test_two_ray_actors_equal_serial(serial, local_ray):
     assert_same(scale.collect("clear_area", SEEDS, STEPS, workers=2, backend="ray"), serial)
 
 
+def test_a_killed_ray_actor_is_restarted_and_its_batch_redone(serial, local_ray):
+    with scale.make_collector("ray", "clear_area", workers=2) as collector:
+        assert_same(collector.collect(SEEDS, STEPS), serial)
+        ray.kill(collector._actors[1], no_restart=False)  # as if its process had died
+        assert_same(collector.collect(SEEDS, STEPS), serial)
+
+
 def test_ray_refuses_more_actors_than_cpus(local_ray):
     with pytest.raises(ValueError, match=r"workers = 3 .* needs 3 CPUs; the Ray cluster has 2"):
         scale.make_collector("ray", "clear_area", workers=3)
@@ -91,3 +102,20 @@ def test_refuses_bad_arguments_by_name(kwargs, message):
     arguments = {"task": "clear_area", "seeds": [0], "steps": 1, "workers": 1, "backend": "threads"} | kwargs
     with pytest.raises(ValueError, match=message):
         scale.collect(**arguments)
+
+
+def test_the_core_package_does_not_need_ray():
+    """With Ray unimportable, collect works on the local backends and the ray backend says what to install."""
+    script = textwrap.dedent("""
+        import sys
+        sys.modules["ray"] = None  # as if Ray were not installed
+        from viscera import scale
+        assert len(scale.collect("clear_area", [0, 1], 2, workers=2, backend="threads")) == 2
+        try:
+            scale.collect("clear_area", [0], 1, backend="ray")
+        except ImportError as error:
+            print(error)
+    """)
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert 'pip install "viscera[ray]"' in result.stdout

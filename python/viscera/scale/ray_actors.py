@@ -13,6 +13,10 @@ starts, a local Ray is started with `ray_init` as ray.init's arguments.
 
 Asking for more actors than the cluster has CPUs is refused up front: Ray would
 otherwise queue the actors that do not fit and collect() would wait forever.
+
+A lost actor (its process or node died) is restarted by Ray up to `max_restarts`
+times and its call retried: a trajectory depends only on its seed, so the retried
+batch is bit-identical to the lost one (tested by killing an actor).
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ class RayCollector(Collector):
     backend = "ray"
 
     def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None,
-                 cpus_per_worker: float = 1.0, ray_init: dict | None = None):
+                 cpus_per_worker: float = 1.0, ray_init: dict | None = None, max_restarts: int = 3):
         super().__init__(task, workers, policy, task_kwargs)
         if not cpus_per_worker > 0:
             raise ValueError(f"cpus_per_worker = {cpus_per_worker}: must be positive")
@@ -40,7 +44,8 @@ class RayCollector(Collector):
         if self.workers * cpus_per_worker > cpus:
             raise ValueError(f"workers = {self.workers} at cpus_per_worker = {cpus_per_worker} needs "
                              f"{self.workers * cpus_per_worker:g} CPUs; the Ray cluster has {cpus:g}")
-        actor = ray.remote(num_cpus=cpus_per_worker)(RolloutWorker)
+        actor = ray.remote(num_cpus=cpus_per_worker, max_restarts=max_restarts,
+                           max_task_retries=max_restarts)(RolloutWorker)
         self._actors = [actor.remote(self.task, self.policy, self.task_kwargs) for _ in range(self.workers)]
 
     def _run(self, batches, steps):

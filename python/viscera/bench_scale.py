@@ -1,0 +1,234 @@
+"""Scaling of the clearing task: environment steps per second against workers, per backend.
+
+    python -m viscera.bench_scale [--runs 5] [--workers 1 2 4] [--envs-per-worker 2] [--steps 100]
+                                  [--json docs/scale/results.json] [--png docs/scale/scaling.png]
+
+Weak scaling, all in this process: each worker holds `envs-per-worker`
+clear_area environments and steps them `steps` control steps (0.02 s each) under
+the seeded random policy, so the work grows with the workers. Per backend of
+viscera.scale.collect (threads, processes, Ray actors) and worker count, after
+one warm-up collection on the same workers: env steps per second (medians of
+`runs`), the speed-up over the serial backend on the same seeds in the same run
+(the peer: a seed's episode sets its cost), and the efficiency (speed-up / workers). Worker counts past the cores
+show where scaling stops: the speed-up cannot exceed the core count. Ray is
+started with as many logical CPUs as the largest worker count, so that it too
+may oversubscribe the cores.
+
+Also measured: the gymnasium vector envs (viscera.vector, one step of all
+envs per call), the bytes of trajectory per env step, the start-up time of each
+backend's workers, and the round trip of an empty Ray actor call: the figures
+the 1,000-core plan in docs/scaling.md starts from. Every collection is checked
+bit-identical to the serial one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from viscera import scale, vector
+from viscera.batch import available_cores
+from viscera.bench_rollout import batch_inputs
+from viscera.tasks import clear_area
+
+TASK = "clear_area"
+
+
+def measure_collect(worker_counts, envs_per_worker, steps, runs, backends, bar) -> dict:
+    most = max(worker_counts)
+    all_seeds = list(range(most * envs_per_worker))
+    reference = scale.collect(TASK, all_seeds, steps, backend="serial")
+    bytes_per_step = sum(t.nbytes for t in reference) / (len(reference) * steps)
+    rows, peer, startup = [], {}, {}
+    ray_init = {"num_cpus": most, "include_dashboard": False, "log_to_driver": False}
+    for workers in worker_counts:
+        seeds = all_seeds[:workers * envs_per_worker]
+        # the peer: the same seeds on the serial backend (a seed's episode sets its cost: contacts, grasps)
+        collectors = {"serial": scale.make_collector("serial", TASK)}
+        for backend in backends:
+            start = time.perf_counter()
+            collectors[backend] = scale.make_collector(backend, TASK, workers,
+                                                       **({"ray_init": ray_init} if backend == "ray" else {}))
+            if workers == most:
+                collectors[backend].collect(seeds[:workers], 1)  # one environment per worker loaded
+                startup[backend] = time.perf_counter() - start
+        for collector in collectors.values():
+            collector.collect(seeds, steps)  # warm-up: environments loaded, caches filled
+        seconds = {name: [] for name in collectors}
+        identical = dict.fromkeys(collectors, True)
+        for _ in range(runs):  # round robin, so that the machine's drifts reach every backend alike
+            for name, collector in collectors.items():
+                start = time.perf_counter()
+                trajectories = collector.collect(seeds, steps)
+                seconds[name].append(time.perf_counter() - start)
+                identical[name] &= all(a.same_as(b) for a, b in zip(trajectories, reference))
+                bar.update()
+        for collector in collectors.values():
+            collector.close()
+        peer[workers] = len(seeds) * steps / statistics.median(seconds["serial"])
+        for name in collectors:
+            rate = len(seeds) * steps / statistics.median(seconds[name])
+            used = 1 if name == "serial" else workers
+            rows.append({"backend": name, "workers": used, "envs": len(seeds),
+                         "seconds": statistics.median(seconds[name]), "steps_per_s": rate,
+                         "speedup": rate / peer[workers], "efficiency": rate / peer[workers] / used,
+                         "identical": identical[name]})
+    return {"rows": rows, "serial_steps_per_s": peer, "bytes_per_step": bytes_per_step,
+            "startup_s": startup, "observation_size": int(reference[0].observations.shape[1])}
+
+
+def smooth_actions(num_envs: int, steps: int) -> np.ndarray:
+    """(steps, num_envs, nu) smooth random tool controls within the action bounds, as the collections' policy."""
+    model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
+    return batch_inputs(model, num_envs, steps, seed=0)[1].transpose(1, 0, 2)
+
+
+def measure_vector(num_envs, steps, runs, bar) -> list[dict]:
+    rows = []
+    cores = available_cores()
+    for backend, workers in [("serial", None), ("threads", 1), ("threads", cores), ("processes", None)]:
+        envs = vector.make(TASK, num_envs=num_envs, seed=0, backend=backend, workers=workers)
+        actions = smooth_actions(num_envs, steps)
+        envs.reset(seed=0)
+        envs.step(actions[0])  # warm-up
+        seconds = []
+        for _ in range(runs):
+            envs.reset(seed=0)
+            start = time.perf_counter()
+            for action in actions:
+                envs.step(action)
+            seconds.append(time.perf_counter() - start)
+            bar.update()
+        envs.close()
+        name = backend if workers is None else f"{backend}, {workers} worker{'s' if workers > 1 else ''}"
+        rows.append({"backend": name, "num_envs": num_envs, "seconds": statistics.median(seconds),
+                     "steps_per_s": num_envs * steps / statistics.median(seconds)})
+    return rows
+
+
+def ray_round_trip(runs: int = 200) -> dict:
+    """Seconds of an empty actor call and of fetching one trajectory-sized array from an actor."""
+    import ray
+
+    @ray.remote(num_cpus=0)
+    class Echo:
+        def nothing(self):
+            return None
+
+        def array(self, size):
+            return np.ones(size)
+
+    echo = Echo.remote()
+    ray.get(echo.nothing.remote())
+    empty = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        ray.get(echo.nothing.remote())
+        empty.append(time.perf_counter() - start)
+    fetch = []
+    size = 1_000_000  # 8 MB: about 2,400 env steps of the clearing task
+    for _ in range(20):
+        start = time.perf_counter()
+        ray.get(echo.array.remote(size))
+        fetch.append(time.perf_counter() - start)
+    ray.kill(echo)
+    return {"empty_call_s": statistics.median(empty), "fetch_8MB_s": statistics.median(fetch),
+            "fetch_MB_per_s": 8.0 / statistics.median(fetch)}
+
+
+def plot(result: dict, path: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cores = result["cores"]
+    peer = {int(k): v for k, v in result["collect"]["serial_steps_per_s"].items()}
+    fig, (rate_axis, eff_axis) = plt.subplots(1, 2, figsize=(10, 4))
+    counts = sorted({r["workers"] for r in result["collect"]["rows"] if r["backend"] != "serial"})
+    rate_axis.plot(counts, [peer[c] * min(c, cores) for c in counts], "k:",
+                   label="ideal: serial x min(workers, cores)")
+    for backend, marker in (("threads", "o"), ("processes", "s"), ("ray", "^")):
+        rows = [r for r in result["collect"]["rows"] if r["backend"] == backend]
+        if not rows:
+            continue
+        rate_axis.plot([r["workers"] for r in rows], [r["steps_per_s"] for r in rows], marker=marker, label=backend)
+        eff_axis.plot([r["workers"] for r in rows], [r["efficiency"] for r in rows], marker=marker, label=backend)
+    rate_axis.plot(counts, [peer[c] for c in counts], color="grey", marker=".", lw=0.8, label="serial (same seeds)")
+    for axis in (rate_axis, eff_axis):
+        axis.axvline(cores, color="grey", ls="--", lw=0.8)
+        axis.set_xlabel("workers (dashed: cores)")
+        axis.set_xticks(counts)
+        axis.legend(fontsize=8)
+    rate_axis.set_ylabel("environment steps / s")
+    eff_axis.set_ylabel("efficiency (speed-up / workers)")
+    eff_axis.set_ylim(0, 1.1)
+    fig.suptitle(f"clear_area, {result['envs_per_worker']} envs x {result['steps']} steps per worker, "
+                 f"{cores} cores, medians of {result['runs']}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m viscera.bench_scale", description=__doc__.split("\n")[0])
+    parser.add_argument("--workers", type=int, nargs="+", default=None,
+                        help="worker counts (default: 1, 2, the cores and twice the cores)")
+    parser.add_argument("--envs-per-worker", type=int, default=2, help="environments each worker holds (default 2)")
+    parser.add_argument("--steps", type=int, default=100, help="control steps per collection (default 100: 2 s)")
+    parser.add_argument("--runs", type=int, default=5, help="timed collections per point, medians (default 5)")
+    parser.add_argument("--backends", nargs="+", default=["threads", "processes", "ray"],
+                        choices=["threads", "processes", "ray"])
+    parser.add_argument("--json", help="write the figures to this JSON file")
+    parser.add_argument("--png", help="draw steps/s and efficiency against workers to this PNG")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    cores = available_cores()
+    counts = sorted(set(args.workers or [1, 2, cores, 2 * cores]))
+    if "ray" in args.backends:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            parser.error('the ray backend needs Ray: pip install "viscera[ray]" (or leave ray out of --backends)')
+    vector_envs = 2 * cores
+    total = (1 + len(args.backends)) * len(counts) * args.runs + 4 * args.runs
+    with tqdm(total=total, desc="scaling benchmark", disable=args.quiet) as bar:
+        collect = measure_collect(counts, args.envs_per_worker, args.steps, args.runs, args.backends, bar)
+        vectors = measure_vector(vector_envs, args.steps, args.runs, bar)
+    result = {"cores": cores, "runs": args.runs, "steps": args.steps, "envs_per_worker": args.envs_per_worker,
+              "collect": collect, "vector": vectors}
+    if "ray" in args.backends:
+        result["ray"] = ray_round_trip()
+        import ray
+        ray.shutdown()
+    identical = all(r["identical"] for r in collect["rows"])
+    print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores, "
+          f"medians of {args.runs}; every collection bit-identical to serial: {identical}")
+    print(f"{'backend':10s} {'workers':>7s} {'envs':>5s} {'env steps/s':>11s} {'speed-up':>9s} {'efficiency':>10s}")
+    for r in collect["rows"]:
+        print(f"{r['backend']:10s} {r['workers']:7d} {r['envs']:5d} {r['steps_per_s']:11.1f} "
+              f"{r['speedup']:9.2f} {r['efficiency']:10.2f}")
+    print(f"start-up with {max(counts)} workers (s): "
+          + ", ".join(f"{b} {s:.2f}" for b, s in collect["startup_s"].items()))
+    print(f"trajectory bytes per env step: {collect['bytes_per_step']:.0f} "
+          f"(observation of {collect['observation_size']} float64)")
+    print(f"gymnasium vector envs, {vector_envs} envs x {args.steps} steps:")
+    for r in vectors:
+        print(f"  {r['backend']:22s} {r['steps_per_s']:9.1f} env steps/s")
+    if "ray" in result:
+        print(f"Ray: empty actor call {result['ray']['empty_call_s'] * 1e3:.2f} ms, "
+              f"8 MB fetched from an actor at {result['ray']['fetch_MB_per_s']:.0f} MB/s")
+    if args.json:
+        with open(args.json, "w") as out:
+            json.dump(result, out, indent=1)
+    if args.png:
+        plot(result, args.png)
+    return 0 if identical else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
