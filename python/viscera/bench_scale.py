@@ -189,9 +189,10 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     cores = available_cores()
     counts = sorted(set(args.workers or [1, 2, cores, 2 * cores]))
+    ray = None
     if "ray" in args.backends:
         try:
-            import ray  # noqa: F401
+            import ray
         except ImportError:
             parser.error('the ray backend needs Ray: pip install "viscera[ray]" (or leave ray out of --backends)')
     vector_envs = 2 * cores
@@ -201,9 +202,8 @@ def main(argv=None) -> int:
         vectors = measure_vector(vector_envs, args.steps, args.runs, bar)
     result = {"cores": cores, "runs": args.runs, "steps": args.steps, "envs_per_worker": args.envs_per_worker,
               "collect": collect, "vector": vectors}
-    if "ray" in args.backends:
+    if ray is not None:
         result["ray"] = ray_round_trip()
-        import ray
         ray.shutdown()
     identical = all(r["identical"] for r in collect["rows"])
     print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores, "
