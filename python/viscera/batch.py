@@ -53,9 +53,15 @@ class BatchResult:
     sensordata: np.ndarray   # (N, T, nsensordata) as computed during each step
 
 
-def _checked(name: str, value, shape: tuple) -> np.ndarray:
-    """`value` as a C-contiguous float64 array of `shape` (None: any size there), all finite."""
-    array = np.ascontiguousarray(value, dtype=np.float64)
+def finite_array(name: str, value, shape: tuple) -> np.ndarray:
+    """`value` as a C-contiguous float64 array of `shape` (None: any size there), all finite.
+
+    Raises ValueError naming `name`, and the shape or the first non-finite entry and its value.
+    """
+    try:
+        array = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} = {value!r}: not an array of numbers ({error})") from None
     if array.ndim != len(shape) or any(want is not None and got != want for got, want in zip(array.shape, shape)):
         expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} has shape {array.shape}, expected {expected}")
@@ -68,14 +74,14 @@ def _checked(name: str, value, shape: tuple) -> np.ndarray:
 
 def _check_inputs(model, initial_state, control, initial_warmstart):
     nstate = mujoco.mj_stateSize(model, FULLPHYSICS)
-    initial_state = _checked("initial_state", initial_state, (None, nstate))
+    initial_state = finite_array("initial_state", initial_state, (None, nstate))
     batch = initial_state.shape[0]
-    control = _checked("control", control, (batch, None, model.nu))
+    control = finite_array("control", control, (batch, None, model.nu))
     if control.shape[1] == 0:
         raise ValueError("control has no steps (shape[1] = 0)")
     if initial_warmstart is None:
         initial_warmstart = np.zeros((batch, model.nv))
-    initial_warmstart = _checked("initial_warmstart", initial_warmstart, (batch, model.nv))
+    initial_warmstart = finite_array("initial_warmstart", initial_warmstart, (batch, model.nv))
     return initial_state, control, initial_warmstart
 
 
@@ -104,6 +110,8 @@ class BatchStepper:
         """
         if self._pool is None:
             raise RuntimeError("BatchStepper is closed")
+        if chunk_size is not None and (not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
+            raise ValueError(f"chunk_size = {chunk_size!r}: must be None or an integer of at least 1")
         initial_state, control, initial_warmstart = _check_inputs(
             self.model, initial_state, control, initial_warmstart)
         state, sensordata = self._pool.rollout(

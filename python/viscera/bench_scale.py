@@ -16,7 +16,8 @@ may oversubscribe the cores.
 
 Also measured: the gymnasium vector envs (viscera.vector, one step of all
 envs per call), the bytes of trajectory per env step, the start-up time of each
-backend's workers, and the round trip of an empty Ray actor call: the figures
+backend's workers, and the round trip of an empty Ray actor call, the physics' share of an env step (the
+part threads run in parallel) and a worker's memory: the figures
 the 1,000-core plan in docs/scaling.md starts from. Every collection is checked
 bit-identical to the serial one.
 """
@@ -24,7 +25,11 @@ bit-identical to the serial one.
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import json
+import multiprocessing
+import os
+import platform
 import statistics
 import time
 
@@ -62,8 +67,10 @@ def measure_collect(worker_counts, envs_per_worker, steps, runs, backends, bar) 
             collector.collect(seeds, steps)  # warm-up: environments loaded, caches filled
         seconds = {name: [] for name in collectors}
         identical = dict.fromkeys(collectors, True)
-        for _ in range(runs):  # round robin, so that the machine's drifts reach every backend alike
-            for name, collector in collectors.items():
+        names = list(collectors)
+        for run in range(runs):  # round robin from a rotating start: drifts and order reach every backend alike
+            for name in names[run % len(names):] + names[:run % len(names)]:
+                collector = collectors[name]
                 start = time.perf_counter()
                 trajectories = collector.collect(seeds, steps)
                 seconds[name].append(time.perf_counter() - start)
@@ -81,6 +88,53 @@ def measure_collect(worker_counts, envs_per_worker, steps, runs, backends, bar) 
                          "identical": identical[name]})
     return {"rows": rows, "serial_steps_per_s": peer, "bytes_per_step": bytes_per_step,
             "startup_s": startup, "observation_size": int(reference[0].observations.shape[1])}
+
+
+def physics_fraction(steps: int = 200) -> float:
+    """The share of an env step's wall time spent in the physics (MuJoCo, GIL released), one env."""
+    import viscera.tasks
+    env = viscera.tasks.load(TASK, seed=0)
+    env.reset()
+    inner, spent = env.physics.step, [0.0]
+
+    def timed_physics_step(*args, **kwargs):
+        start = time.perf_counter()
+        inner(*args, **kwargs)
+        spent[0] += time.perf_counter() - start
+
+    env.physics.step = timed_physics_step  # dm_control's Environment.step calls physics.step(n_sub_steps)
+    start = time.perf_counter()
+    for action in smooth_actions(1, steps)[:, 0]:
+        env.step(action)
+    return spent[0] / (time.perf_counter() - start)
+
+
+def _resident_mb() -> float:
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+
+def _worker_memory() -> tuple[float, float]:
+    """In a fresh process: resident MB of a worker holding one environment, and MB per further environment."""
+    worker = scale.RolloutWorker(TASK)
+    worker.run([0], 2)
+    one = _resident_mb()
+    worker.run(list(range(9)), 2)
+    return one, (_resident_mb() - one) / 8
+
+
+def worker_memory() -> dict:
+    with concurrent.futures.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        one, per_env = pool.submit(_worker_memory).result()
+    return {"process_with_one_env_MB": one, "per_further_env_MB": per_env}
+
+
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as info:
+            return next(line.split(":", 1)[1].strip() for line in info if line.startswith("model name"))
+    except (OSError, StopIteration):
+        return platform.processor() or "unknown"
 
 
 def smooth_actions(num_envs: int, steps: int) -> np.ndarray:
@@ -200,13 +254,16 @@ def main(argv=None) -> int:
     with tqdm(total=total, desc="scaling benchmark", disable=args.quiet) as bar:
         collect = measure_collect(counts, args.envs_per_worker, args.steps, args.runs, args.backends, bar)
         vectors = measure_vector(vector_envs, args.steps, args.runs, bar)
-    result = {"cores": cores, "runs": args.runs, "steps": args.steps, "envs_per_worker": args.envs_per_worker,
-              "collect": collect, "vector": vectors}
+    result = {"cores": cores, "cpu": cpu_model(), "runs": args.runs, "steps": args.steps,
+              "envs_per_worker": args.envs_per_worker, "collect": collect, "vector": vectors,
+              "physics_fraction": statistics.median(physics_fraction() for _ in range(3)),
+              "memory": worker_memory()}
     if ray is not None:
         result["ray"] = ray_round_trip()
         ray.shutdown()
     identical = all(r["identical"] for r in collect["rows"])
-    print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores, "
+    print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores "
+          f"({result['cpu']}), "
           f"medians of {args.runs}; every collection bit-identical to serial: {identical}")
     print(f"{'backend':10s} {'workers':>7s} {'envs':>5s} {'env steps/s':>11s} {'speed-up':>9s} {'efficiency':>10s}")
     for r in collect["rows"]:
@@ -214,6 +271,9 @@ def main(argv=None) -> int:
               f"{r['speedup']:9.2f} {r['efficiency']:10.2f}")
     print(f"start-up with {max(counts)} workers (s): "
           + ", ".join(f"{b} {s:.2f}" for b, s in collect["startup_s"].items()))
+    print(f"physics share of an env step: {result['physics_fraction']:.2f} (the rest is the task's Python); "
+          f"a worker process with one env: {result['memory']['process_with_one_env_MB']:.0f} MB, "
+          f"{result['memory']['per_further_env_MB']:.1f} MB per further env")
     print(f"trajectory bytes per env step: {collect['bytes_per_step']:.0f} "
           f"(observation of {collect['observation_size']} float64)")
     print(f"gymnasium vector envs, {vector_envs} envs x {args.steps} steps:")

@@ -9,8 +9,11 @@ imports gymnasium's MuJoCo renderer (imageio, GLFW) on import, re-seeds a
 RandomState the dm_control task never reads, and offers only dict observations,
 which CleanRL-style loops cannot batch into one tensor. Here:
 
-- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s) does),
-  then returns the FIRST time step's observation; info carries step_type and discount.
+- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s) does;
+  clear_area draws nothing from it: every episode starts from the same scene), then
+  returns the FIRST time step's observation; its info carries step_type only (dm_env's
+  FIRST discount is None, which gymnasium could not batch beside floats).
+- step's info carries step_type and discount.
 - step returns the dm_env reward (float), and ends an episode exactly as dm_env
   does: a LAST step with discount 0 is `terminated` (the task ended it: the area is
   clear), a LAST step with discount > 0 is `truncated` (the time limit). Stepping
@@ -20,7 +23,8 @@ which CleanRL-style loops cannot batch into one tensor. Here:
   flatten=False they are a gymnasium Dict of the same arrays. Nothing is cast,
   clipped or rescaled: values are bit-identical to the dm_env time step's.
 - Actions are the dm_env action (the tools' actuator controls, in the action
-  spec's bounds); out-of-range values are clamped by MuJoCo, as under dm_env.
+  spec's bounds); out-of-range values are clamped by MuJoCo, as under dm_env. A
+  non-finite or wrong-sized action is refused by name before it reaches MuJoCo.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from dm_env import specs
 
 import viscera.tasks
 from viscera import observations
+from viscera.batch import finite_array
 
 ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
 
@@ -83,7 +88,9 @@ class TaskEnv(gymnasium.Env):
 
     @staticmethod
     def _info(time_step) -> dict:
-        return {"step_type": int(time_step.step_type), "discount": time_step.discount}
+        if time_step.first():
+            return {"step_type": int(time_step.step_type)}
+        return {"step_type": int(time_step.step_type), "discount": float(time_step.discount)}
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -97,6 +104,7 @@ class TaskEnv(gymnasium.Env):
     def step(self, action):
         if self._episode_over:
             raise RuntimeError("step() after the episode ended (or before reset()): call reset() first")
+        action = finite_array("action", action, self.action_space.shape)
         time_step = self.dm_env.step(action)
         terminated = truncated = False
         if time_step.last():

@@ -31,23 +31,25 @@ from gymnasium.vector.utils import concatenate, iterate
 
 from viscera.batch import available_cores
 from viscera.gymnasium_env import TaskEnv
+from viscera.scale.worker import checked_integer
 
 BACKENDS = ("serial", "threads", "processes")
 
 
 class ThreadVectorEnv(SyncVectorEnv):
-    """SyncVectorEnv whose sub-environments reset and step concurrently on a thread pool.
+    """SyncVectorEnv whose sub-environments step concurrently on a thread pool (reset, rare, is serial).
 
-    Results, autoreset and info batching are SyncVectorEnv's: each sub-environment's
-    work is independent, and its results are gathered in index order.
+    Results, autoreset (an autoreset inside step runs on the pool too) and info batching are
+    SyncVectorEnv's: each sub-environment's work is independent, and its results are gathered
+    in index order.
     """
 
     def __init__(self, env_fns, workers: int | None = None, copy: bool = True, observation_mode="same",
                  autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP):
+        if workers is not None:
+            workers = checked_integer("workers", workers, 1)  # before any environment is built
         super().__init__(env_fns, copy=copy, observation_mode=observation_mode, autoreset_mode=autoreset_mode)
-        self.workers = min(self.num_envs, available_cores()) if workers is None else int(workers)
-        if self.workers < 1:
-            raise ValueError(f"workers = {workers}: must be at least 1")
+        self.workers = min(self.num_envs, available_cores()) if workers is None else workers
         self._pool = concurrent.futures.ThreadPoolExecutor(self.workers, thread_name_prefix="viscera-env")
 
     def _advance(self, i: int, action) -> tuple:
@@ -67,6 +69,8 @@ class ThreadVectorEnv(SyncVectorEnv):
 
     def step(self, actions):
         actions = list(iterate(self.action_space, actions))
+        if len(actions) != self.num_envs:  # map() would silently leave the last environments unstepped
+            raise ValueError(f"actions hold {len(actions)} actions for {self.num_envs} environments")
         results = list(self._pool.map(self._advance, range(self.num_envs), actions))
         infos = {}
         for i, (observation, reward, terminated, truncated, info, extra) in enumerate(results):
@@ -86,21 +90,25 @@ class ThreadVectorEnv(SyncVectorEnv):
         super().close_extras(**kwargs)
 
 
-def make(task: str = "clear_area", num_envs: int = 2, seed: int = 0, backend: str = "threads",
+def make(task: str = "clear_area", num_envs: int = 2, seed: int | None = 0, backend: str = "threads",
          workers: int | None = None, **env_kwargs):
     """A gymnasium vector env of `num_envs` TaskEnv(task, seed=seed + i, **env_kwargs) (see the module doc).
+
+    seed None leaves every sub-environment unseeded.
 
     workers: threads for "threads" (default: min(num_envs, cores)); "processes" always
     runs one process per environment and "serial" one thread, so workers must be None there.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend = {backend!r}: must be one of {BACKENDS}")
-    if int(num_envs) < 1:
-        raise ValueError(f"num_envs = {num_envs}: must be at least 1")
+    num_envs = checked_integer("num_envs", num_envs, 1)
+    if seed is not None:
+        seed = checked_integer("seed", seed, 0)
     if workers is not None and backend != "threads":
         raise ValueError(f"workers = {workers}: only the 'threads' backend takes it "
                          f"('{backend}' runs {'one process per environment' if backend == 'processes' else 'one thread'})")
-    env_fns = [functools.partial(TaskEnv, task, seed=seed + i, **env_kwargs) for i in range(int(num_envs))]
+    env_fns = [functools.partial(TaskEnv, task, seed=None if seed is None else seed + i, **env_kwargs)
+               for i in range(num_envs)]
     if backend == "serial":
         return SyncVectorEnv(env_fns)
     if backend == "threads":

@@ -85,6 +85,9 @@ def test_refuses_wrong_shapes_by_name(abdomen):
             stepper.step(initial[:, :7], control)
         with pytest.raises(ValueError, match=r"control has no steps"):
             stepper.step(initial, control[:, :0])
+        for chunk_size in (0, -1, 1.5):  # 0 divides by zero in rollout, -1 never ends
+            with pytest.raises(ValueError, match=rf"chunk_size = {chunk_size}: must be None or an integer"):
+                stepper.step(initial, control, chunk_size=chunk_size)
     with pytest.raises(RuntimeError, match="closed"):
         stepper.step(initial, control)
     with pytest.raises(ValueError, match="threads = 0"):

@@ -6,7 +6,6 @@ import textwrap
 
 import numpy as np
 import pytest
-import ray
 
 from viscera import scale
 
@@ -22,8 +21,9 @@ def serial():
 
 @pytest.fixture(scope="module")
 def local_ray():
+    import ray  # the test extra installs it; only these tests need it
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    yield
+    yield ray
     ray.shutdown()
 
 
@@ -60,15 +60,29 @@ def test_two_ray_actors_equal_serial(serial, local_ray):
 
 
 def test_a_killed_ray_actor_is_restarted_and_its_batch_redone(serial, local_ray):
+    ray = local_ray
     with scale.make_collector("ray", "clear_area", workers=2) as collector:
-        assert_same(collector.collect(SEEDS, STEPS), serial)
-        ray.kill(collector._actors[1], no_restart=False)  # as if its process had died
+        actor = collector._actors[1]
+        pending = actor.run.remote(SEEDS[1:], STEPS)  # a batch in flight
+        ray.kill(actor, no_restart=False)  # as if its process had died mid-batch
+        assert all(a.same_as(b) for a, b in zip(ray.get(pending), serial[1:]))  # retried on the restarted actor
         assert_same(collector.collect(SEEDS, STEPS), serial)
 
 
-def test_ray_refuses_more_actors_than_cpus(local_ray):
-    with pytest.raises(ValueError, match=r"workers = 3 .* needs 3 CPUs; the Ray cluster has 2"):
-        scale.make_collector("ray", "clear_area", workers=3)
+def test_ray_stops_waiting_for_actors_that_find_no_cpus(local_ray):
+    """Three 1-CPU actors on a 2-CPU Ray: one can never start; the collector says so instead of hanging."""
+    with pytest.raises(TimeoutError, match=r"workers = 3: [1-3] of 3 Ray actors did not start within "
+                                           r"start_timeout = 3 s; .* the cluster has 2 CPUs"):
+        scale.make_collector("ray", "clear_area", workers=3, start_timeout=3.0)
+    with pytest.raises(ValueError, match=r"max_restarts = -1: must be at least 0"):
+        scale.make_collector("ray", "clear_area", workers=1, max_restarts=-1)
+
+
+def test_a_policy_nan_is_refused_by_name_before_mujoco():
+    def broken(env, seed):
+        return lambda time_step: np.full(9, np.nan)
+    with pytest.raises(ValueError, match=r"action of the policy for seed 5 at step 0\[0\] = nan: must be finite"):
+        scale.collect("clear_area", [5], 3, backend="serial", policy=broken)
 
 
 def test_a_collector_reuses_its_workers_and_episodes_end_at_the_time_limit():
@@ -97,6 +111,10 @@ def test_the_scripted_gesture_collects_the_same_everywhere():
     ({"policy": "greedy"}, r"policy = 'greedy': must be one of \('random', 'gesture'\)"),
     ({"seeds": [1, 2, 1]}, r"seeds repeat: \[1\]"),
     ({"steps": -1}, r"steps = -1: must be at least 0"),
+    ({"steps": float("nan")}, r"steps = nan: must be an integer"),
+    ({"seeds": [0, 0.7]}, r"seeds\[1\] = 0.7: must be an integer in \[0, 2\*\*32\)"),
+    ({"seeds": [-3]}, r"seeds\[0\] = -3: must be an integer"),
+    ({"workers": "two"}, r"workers = 'two': must be an integer"),
 ])
 def test_refuses_bad_arguments_by_name(kwargs, message):
     arguments = {"task": "clear_area", "seeds": [0], "steps": 1, "workers": 1, "backend": "threads"} | kwargs

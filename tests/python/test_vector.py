@@ -30,7 +30,8 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
     reference = viscera.tasks.load("clear_area", seed=3)
     observation, info = env.reset(seed=3)
     time_step = reference.reset()
-    assert info == {"step_type": 0, "discount": None}
+    assert info == {"step_type": 0}  # dm_env's FIRST discount is None: left out, so infos batch as floats
+    assert env.dm_env.task.random.get_state()[1].tolist() == np.random.RandomState(3).get_state()[1].tolist()
     rng = np.random.default_rng(0)
     for _ in range(4):
         parts = env.unflatten(observation)
@@ -57,6 +58,22 @@ def test_time_limit_truncates_and_the_task_terminates(monkeypatch):
     monkeypatch.setattr(env.dm_env.task, "get_termination", lambda physics: 0.0)
     _, _, terminated, truncated, info = env.step(env.action_space.low)
     assert (terminated, truncated, info["discount"]) == (True, False, 0.0)
+
+
+def test_refuses_non_finite_and_wrong_sized_actions_by_name():
+    env = gymnasium_env.TaskEnv("clear_area", seed=0)
+    env.reset()
+    action = env.action_space.low.copy()
+    action[4] = np.nan
+    with pytest.raises(ValueError, match=r"action\[4\] = nan: must be finite"):
+        env.step(action)
+    with pytest.raises(ValueError, match=r"action has shape \(8,\), expected \(9\)"):
+        env.step(action[:8])
+    envs = vector.make("clear_area", num_envs=2, seed=None, backend="threads")  # seed None: unseeded
+    envs.reset()
+    with pytest.raises(ValueError, match="actions hold 1 actions for 2 environments"):
+        envs.step(np.zeros((1, 9)))
+    envs.close()
 
 
 def run(envs, steps=12, seed=7):
@@ -127,6 +144,8 @@ def test_cleanrl_style_loop_records_episode_returns():
     ({"num_envs": 0}, r"num_envs = 0: must be at least 1"),
     ({"backend": "processes", "workers": 2}, r"workers = 2: only the 'threads' backend takes it"),
     ({"workers": 0}, r"workers = 0: must be at least 1"),
+    ({"num_envs": 2.5}, r"num_envs = 2.5: must be an integer"),
+    ({"seed": -1}, r"seed = -1: must be at least 0"),
 ])
 def test_refuses_bad_arguments_by_name(kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -10,7 +10,7 @@
 `workers` RolloutWorkers (worker.py) each hold their own environments; the seeds
 are split into `workers` contiguous batches, one per worker, and the results come
 back in seed order. Backends:
-  - "serial":    one worker in the calling thread (the reference);
+  - "serial":    one worker in the calling thread, whatever `workers` says (the reference);
   - "threads":   one worker per thread in this process; MuJoCo releases the GIL in
                  mj_step, which is most of a control step, so the physics runs in parallel;
   - "processes": one worker per process (spawned), kept for the collector's life;
@@ -27,7 +27,8 @@ import multiprocessing
 
 import numpy as np
 
-from viscera.scale.worker import POLICIES, RandomPolicy, RolloutWorker, Trajectory, policy_factory
+from viscera.scale.worker import (POLICIES, RandomPolicy, RolloutWorker, Trajectory, checked_integer, checked_seeds,
+                                  policy_factory)
 
 BACKENDS = ("serial", "threads", "processes", "ray")
 
@@ -37,7 +38,7 @@ __all__ = ["BACKENDS", "POLICIES", "Collector", "RandomPolicy", "RolloutWorker",
 
 def split_seeds(seeds, workers: int) -> list[list[int]]:
     """`workers` contiguous batches of the seeds, sizes differing by at most one (some empty if few seeds)."""
-    seeds = [int(s) for s in seeds]
+    seeds = checked_seeds(seeds)
     return [list(part) for part in np.array_split(np.asarray(seeds, dtype=np.int64), workers)]
 
 
@@ -47,22 +48,17 @@ class Collector:
     backend = "serial"
 
     def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None):
-        workers = int(workers)
-        if workers < 1:
-            raise ValueError(f"workers = {workers}: must be at least 1")
+        workers = checked_integer("workers", workers, 1)
         policy_factory(policy)  # refuse a bad policy here, not in a worker
         RolloutWorker(task, policy, task_kwargs)  # and a bad task (loads nothing)
         self.task, self.workers, self.policy, self.task_kwargs = task, workers, policy, dict(task_kwargs or {})
 
     def collect(self, seeds, steps: int) -> list[Trajectory]:
         """One trajectory per seed, in the order of `seeds` (see worker.RolloutWorker.run)."""
-        seeds = [int(s) for s in seeds]
-        if int(steps) < 0:
-            raise ValueError(f"steps = {steps}: must be at least 0")
-        if len(set(seeds)) != len(seeds):
-            raise ValueError(f"seeds repeat: {sorted(s for s in set(seeds) if seeds.count(s) > 1)}")
+        seeds = checked_seeds(seeds)
+        steps = checked_integer("steps", steps, 0)
         batches = [b for b in split_seeds(seeds, self.workers) if b]
-        results = self._run(batches, int(steps))
+        results = self._run(batches, steps)
         trajectories = [t for batch in results for t in batch]
         assert [t.seed for t in trajectories] == seeds
         return trajectories

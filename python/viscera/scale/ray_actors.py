@@ -11,8 +11,14 @@ thread). Trajectories come back as numpy arrays through Ray's object store
 (zero-copy pickling of the arrays). If Ray is not connected when the collector
 starts, a local Ray is started with `ray_init` as ray.init's arguments.
 
-Asking for more actors than the cluster has CPUs is refused up front: Ray would
-otherwise queue the actors that do not fit and collect() would wait forever.
+The collector waits until every actor has started, at most `start_timeout` s:
+actors that find no free CPUs (more than the cluster has, or a cluster busy with
+other work) would otherwise queue, and collect() would wait forever. Then it
+stops the actors it started and raises TimeoutError with the CPUs the cluster has
+and has free. An autoscaling cluster needs a start_timeout long enough to add nodes.
+
+viscera, with its built plugin, must be installed in the same Python environment
+on every node (the cluster's image, or Ray's runtime_env with a viscera wheel).
 
 A lost actor (its process or node died) is restarted by Ray up to `max_restarts`
 times and its call retried: a trajectory depends only on its seed, so the retried
@@ -22,7 +28,7 @@ batch is bit-identical to the lost one (tested by killing an actor).
 from __future__ import annotations
 
 from viscera.scale import Collector
-from viscera.scale.worker import RolloutWorker
+from viscera.scale.worker import RolloutWorker, checked_integer
 
 try:
     import ray
@@ -34,19 +40,29 @@ class RayCollector(Collector):
     backend = "ray"
 
     def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None,
-                 cpus_per_worker: float = 1.0, ray_init: dict | None = None, max_restarts: int = 3):
+                 cpus_per_worker: float = 1.0, ray_init: dict | None = None, max_restarts: int = 3,
+                 start_timeout: float = 120.0):
         super().__init__(task, workers, policy, task_kwargs)
-        if not cpus_per_worker > 0:
-            raise ValueError(f"cpus_per_worker = {cpus_per_worker}: must be positive")
+        if not (isinstance(cpus_per_worker, (int, float)) and cpus_per_worker > 0):
+            raise ValueError(f"cpus_per_worker = {cpus_per_worker!r}: must be a positive number")
+        max_restarts = checked_integer("max_restarts", max_restarts, 0)
+        if not (isinstance(start_timeout, (int, float)) and start_timeout > 0):
+            raise ValueError(f"start_timeout = {start_timeout!r}: must be a positive number of seconds")
         if not ray.is_initialized():
             ray.init(**(ray_init or {}))
-        cpus = ray.cluster_resources().get("CPU", 0.0)
-        if self.workers * cpus_per_worker > cpus:
-            raise ValueError(f"workers = {self.workers} at cpus_per_worker = {cpus_per_worker} needs "
-                             f"{self.workers * cpus_per_worker:g} CPUs; the Ray cluster has {cpus:g}")
         actor = ray.remote(num_cpus=cpus_per_worker, max_restarts=max_restarts,
                            max_task_retries=max_restarts)(RolloutWorker)
         self._actors = [actor.remote(self.task, self.policy, self.task_kwargs) for _ in range(self.workers)]
+        started = [a.ready.remote() for a in self._actors]
+        _, pending = ray.wait(started, num_returns=len(started), timeout=start_timeout)
+        if pending:
+            total, free = ray.cluster_resources().get("CPU", 0.0), ray.available_resources().get("CPU", 0.0)
+            self.close()
+            raise TimeoutError(
+                f"workers = {self.workers}: {len(pending)} of {self.workers} Ray actors did not start within "
+                f"start_timeout = {start_timeout:g} s; each needs cpus_per_worker = {cpus_per_worker:g} CPUs, "
+                f"the cluster has {total:g} CPUs and {free:g} free")
+        ray.get(started)  # an actor that failed to construct raises here
 
     def _run(self, batches, steps):
         return ray.get([actor.run.remote(batch, steps) for actor, batch in zip(self._actors, batches)])

@@ -21,6 +21,30 @@ import numpy as np
 
 import viscera.tasks
 from viscera import observations
+from viscera.batch import finite_array
+
+SEED_LIMIT = 2 ** 32  # numpy's RandomState, which dm_control tasks draw from, takes seeds below this
+
+
+def checked_integer(name: str, value, minimum: int) -> int:
+    """`value` as an int, refused by name unless it is an integer of at least `minimum`."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} = {value!r}: must be an integer")
+    if value < minimum:
+        raise ValueError(f"{name} = {value}: must be at least {minimum}")
+    return int(value)
+
+
+def checked_seeds(seeds) -> list[int]:
+    """The seeds as ints, each refused by position unless an integer in [0, 2**32), none repeated."""
+    seeds = list(seeds)
+    for i, seed in enumerate(seeds):
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < SEED_LIMIT:
+            raise ValueError(f"seeds[{i}] = {seed!r}: must be an integer in [0, 2**32)")
+    seeds = [int(s) for s in seeds]
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds repeat: {sorted(s for s in set(seeds) if seeds.count(s) > 1)}")
+    return seeds
 
 
 @dataclasses.dataclass(eq=False)
@@ -135,12 +159,14 @@ class RolloutWorker:
             self.envs.append(viscera.tasks.load(self.task, seed=None, **self.task_kwargs))
         return self.envs[:count]
 
+    def ready(self) -> bool:
+        """True: lets a caller wait until a remote worker has been constructed."""
+        return True
+
     def run(self, seeds, steps: int) -> list[Trajectory]:
         """One trajectory per seed, in the order given (see the module doc)."""
-        seeds = [int(s) for s in seeds]
-        steps = int(steps)
-        if steps < 0:
-            raise ValueError(f"steps = {steps}: must be at least 0")
+        seeds = checked_seeds(seeds)
+        steps = checked_integer("steps", steps, 0)
         envs = self._environments(len(seeds))
         places, time_steps, policies, records = None, [], [], []
         for env, seed in zip(envs, seeds):
@@ -158,7 +184,9 @@ class RolloutWorker:
             for env, policy, record, i in zip(envs, policies, records, range(len(envs))):
                 if time_steps[i].last():
                     continue
-                action = np.asarray(policy(time_steps[i]), dtype=np.float64)
+                # a policy's NaN or wrong-sized action stops here, named, before it reaches MuJoCo
+                action = finite_array(f"action of the policy for seed {seeds[i]} at step {t}",
+                                      policy(time_steps[i]), (nu,))
                 time_steps[i] = time_step = env.step(action)
                 record["actions"][t] = action
                 record["rewards"][t] = time_step.reward
