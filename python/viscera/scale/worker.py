@@ -8,7 +8,8 @@ its batch in lockstep, as a learner's actor does (a batched policy would be
 evaluated once per step for the whole batch).
 
 A trajectory is one episode from reset, cut after `steps` actions or at the
-episode's end, whichever comes first. It depends only on (task, task kwargs,
+episode's end, whichever comes first. Its seed seeds the task's RandomState and
+the policy (clear_area draws nothing at reset, so there only the policy differs). It depends only on (task, task kwargs,
 policy, seed, steps): not on the backend, the worker it ran on or the other
 seeds of its batch (tested bit for bit).
 """
