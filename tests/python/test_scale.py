@@ -59,6 +59,20 @@ def test_two_ray_actors_equal_serial(serial, local_ray):
     assert_same(scale.collect("clear_area", SEEDS, STEPS, workers=2, backend="ray"), serial)
 
 
+@pytest.mark.parametrize("backend", ["threads", "processes", "ray"])
+def test_batches_as_completed_are_the_serial_trajectories(serial, local_ray, backend):
+    """Each worker's batch arrives whole, in its seeds' order; together they are collect()'s trajectories."""
+    with scale.make_collector(backend, "clear_area", workers=2) as collector:
+        batches = list(collector.collect_as_completed(SEEDS, STEPS))
+        assert sorted([t.seed for t in batch] for batch in batches) == sorted(scale.split_seeds(SEEDS, 2))
+        by_seed = {t.seed: t for batch in batches for t in batch}
+        assert_same([by_seed[seed] for seed in SEEDS], serial)
+        early = collector.collect_as_completed(SEEDS, STEPS)
+        next(early)
+        early.close()  # waits for the other batch: the workers are free again
+        assert_same(collector.collect(SEEDS, STEPS), serial)
+
+
 def test_a_killed_ray_actor_is_restarted_and_its_batch_redone(serial, local_ray):
     ray = local_ray
     with scale.make_collector("ray", "clear_area", workers=2) as collector:
@@ -97,6 +111,23 @@ def test_a_collector_reuses_its_workers_and_episodes_end_at_the_time_limit():
         assert trajectory.observations.shape[0] == 11 and trajectory.discounts[-1] == 1.0  # time limit, not task
 
 
+def test_a_reduced_observation_ships_a_third_of_the_bytes():
+    """50 axis points in float32 (the 1,000-core plan's first step): the same episode, cast, at a third of the bytes."""
+    full = scale.collect("clear_area", SEEDS, STEPS, backend="serial", axis_samples=50)
+    reduced = scale.collect("clear_area", SEEDS, STEPS, workers=2, backend="processes", observation_dtype="float32",
+                            axis_samples=50)
+    for small, large in zip(reduced, full):
+        assert small.observations.dtype == np.float32 and small.observations.shape == (STEPS + 1, 9 + 12 + 1 + 150 + 100)
+        assert np.array_equal(small.observations, large.observations.astype(np.float32))
+        assert np.array_equal(small.actions, large.actions)  # the policy saw the same float64 observations
+    default = scale.collect("clear_area", SEEDS[:1], STEPS, backend="serial")[0]
+    per_step_records = STEPS * (9 + 1 + 1) * 8  # actions, rewards, discounts: float64
+    assert reduced[0].nbytes == (STEPS + 1) * 272 * 4 + per_step_records
+    assert default.nbytes == (STEPS + 1) * 422 * 8 + per_step_records
+    assert reduced[0].nbytes / default.nbytes < 0.34
+    assert default.observation("intestine_axis").shape == (STEPS + 1, 300)
+
+
 def test_the_scripted_gesture_collects_the_same_everywhere():
     serial = scale.collect("clear_area", [0, 1], 6, backend="serial", policy="gesture")
     threaded = scale.collect("clear_area", [0, 1], 6, workers=2, backend="threads", policy="gesture")
@@ -115,6 +146,8 @@ def test_the_scripted_gesture_collects_the_same_everywhere():
     ({"seeds": [0, 0.7]}, r"seeds\[1\] = 0.7: must be an integer in \[0, 2\*\*32\)"),
     ({"seeds": [-3]}, r"seeds\[0\] = -3: must be an integer"),
     ({"workers": "two"}, r"workers = 'two': must be an integer"),
+    ({"axis_samples": 1}, r"axis_samples = 1: must be an integer in \[2, 100000\]"),
+    ({"observation_dtype": "float16"}, r"observation_dtype = 'float16': must be one of \('float64', 'float32'\)"),
 ])
 def test_refuses_bad_arguments_by_name(kwargs, message):
     arguments = {"task": "clear_area", "seeds": [0], "steps": 1, "workers": 1, "backend": "threads"} | kwargs

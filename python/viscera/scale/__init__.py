@@ -6,6 +6,7 @@
     with viscera.scale.make_collector("ray", "clear_area", workers=64) as collector:   # actors kept
         for iteration in range(1000):
             batch = collector.collect(seeds=range(iteration * 640, (iteration + 1) * 640), steps=50)
+            # or, batch by batch as the workers finish: collector.collect_as_completed(seeds, steps)
 
 `workers` RolloutWorkers (worker.py) each hold their own environments; the seeds
 are split into `workers` contiguous batches, one per worker, and the results come
@@ -27,8 +28,7 @@ import multiprocessing
 
 import numpy as np
 
-from viscera.scale.worker import (POLICIES, RandomPolicy, RolloutWorker, Trajectory, checked_integer, checked_seeds,
-                                  policy_factory)
+from viscera.scale.worker import POLICIES, RandomPolicy, RolloutWorker, Trajectory, checked_integer, checked_seeds
 
 BACKENDS = ("serial", "threads", "processes", "ray")
 
@@ -47,24 +47,56 @@ class Collector:
 
     backend = "serial"
 
-    def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None):
+    def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None,
+                 observation_dtype: str = "float64"):
         workers = checked_integer("workers", workers, 1)
-        policy_factory(policy)  # refuse a bad policy here, not in a worker
-        RolloutWorker(task, policy, task_kwargs)  # and a bad task (loads nothing)
+        # refuse a bad task, policy or dtype here rather than in a worker (loads nothing)
+        RolloutWorker(task, policy, task_kwargs, observation_dtype)
         self.task, self.workers, self.policy, self.task_kwargs = task, workers, policy, dict(task_kwargs or {})
+        self.observation_dtype = observation_dtype
+
+    def _worker_arguments(self) -> tuple:
+        return self.task, self.policy, self.task_kwargs, self.observation_dtype
+
+    def _batches(self, seeds, steps) -> tuple[list[int], list[list[int]], int]:
+        seeds = checked_seeds(seeds)
+        steps = checked_integer("steps", steps, 0)
+        return seeds, [b for b in split_seeds(seeds, self.workers) if b], steps
 
     def collect(self, seeds, steps: int) -> list[Trajectory]:
         """One trajectory per seed, in the order of `seeds` (see worker.RolloutWorker.run)."""
-        seeds = checked_seeds(seeds)
-        steps = checked_integer("steps", steps, 0)
-        batches = [b for b in split_seeds(seeds, self.workers) if b]
-        results = self._run(batches, steps)
-        trajectories = [t for batch in results for t in batch]
+        seeds, batches, steps = self._batches(seeds, steps)
+        trajectories = [t for handle in self._submit(batches, steps) for t in self._result(handle)]
         assert [t.seed for t in trajectories] == seeds
         return trajectories
 
-    def _run(self, batches: list[list[int]], steps: int) -> list[list[Trajectory]]:
+    def collect_as_completed(self, seeds, steps: int):
+        """Yield each worker's batch of trajectories (its seeds, in order) as soon as it is done.
+
+        The same trajectories as collect(), in the order the workers finish: a learner can
+        start on the first batches while stragglers run. Closing the generator early waits
+        for the batches in flight, so the workers are free for the next call.
+        """
+        seeds, batches, steps = self._batches(seeds, steps)
+        pending = self._submit(batches, steps)
+        try:
+            while pending:
+                done, pending = self._first_done(pending)
+                yield self._result(done)
+        finally:
+            for handle in pending:
+                self._result(handle)
+
+    # a backend submits batches as handles, then turns a handle into its trajectories
+    def _submit(self, batches: list[list[int]], steps: int) -> list:
         raise NotImplementedError
+
+    def _result(self, handle) -> list[Trajectory]:
+        raise NotImplementedError
+
+    def _first_done(self, handles: list) -> tuple[object, list]:
+        """A finished handle, and the others."""
+        return handles[0], handles[1:]
 
     def close(self) -> None:
         pass
@@ -81,40 +113,55 @@ class SerialCollector(Collector):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._worker = RolloutWorker(self.task, self.policy, self.task_kwargs)
+        self._worker = RolloutWorker(*self._worker_arguments())
 
-    def _run(self, batches, steps):
-        return [self._worker.run([s for b in batches for s in b], steps)]
+    def _submit(self, batches, steps):
+        return [self._worker.run([s for b in batches for s in b], steps)]  # done already: the handle is the result
+
+    def _result(self, handle):
+        return handle
 
 
-class ThreadCollector(Collector):
-    backend = "threads"
+class _PoolCollector(Collector):
+    """Workers behind a concurrent.futures executor: handles are futures."""
 
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._workers = [RolloutWorker(self.task, self.policy, self.task_kwargs) for _ in range(self.workers)]
-        self._pool = concurrent.futures.ThreadPoolExecutor(self.workers, thread_name_prefix="viscera-rollout")
+    def _result(self, handle):
+        return handle.result()
 
-    def _run(self, batches, steps):
-        return list(self._pool.map(lambda w, b: w.run(b, steps), self._workers, batches))
+    def _first_done(self, handles):
+        done = next(concurrent.futures.as_completed(handles))
+        return done, [h for h in handles if h is not done]
 
     def close(self):
         self._pool.shutdown(wait=True)
 
 
+class ThreadCollector(_PoolCollector):
+    backend = "threads"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._workers = [RolloutWorker(*self._worker_arguments()) for _ in range(self.workers)]
+        self._pool = concurrent.futures.ThreadPoolExecutor(self.workers, thread_name_prefix="viscera-rollout")
+
+    def _submit(self, batches, steps):
+        # worker i takes batch i: a worker's environments are never stepped by two threads at once
+        return [self._pool.submit(worker.run, batch, steps) for worker, batch in zip(self._workers, batches)]
+
+
 _process_worker = None  # the RolloutWorker of a collector's worker process
 
 
-def _start_process_worker(task, policy, task_kwargs):
+def _start_process_worker(*worker_arguments):
     global _process_worker
-    _process_worker = RolloutWorker(task, policy, task_kwargs)
+    _process_worker = RolloutWorker(*worker_arguments)
 
 
 def _run_in_process(seeds, steps):
     return _process_worker.run(seeds, steps)
 
 
-class ProcessCollector(Collector):
+class ProcessCollector(_PoolCollector):
     backend = "processes"
 
     def __init__(self, *args, **kwargs):
@@ -122,35 +169,34 @@ class ProcessCollector(Collector):
         # spawn: fresh interpreters, safe beside the parent's threads (MuJoCo's, a learner's)
         self._pool = concurrent.futures.ProcessPoolExecutor(
             self.workers, mp_context=multiprocessing.get_context("spawn"),
-            initializer=_start_process_worker, initargs=(self.task, self.policy, self.task_kwargs))
+            initializer=_start_process_worker, initargs=self._worker_arguments())
 
-    def _run(self, batches, steps):
-        return list(self._pool.map(_run_in_process, batches, [steps] * len(batches)))
-
-    def close(self):
-        self._pool.shutdown(wait=True)
+    def _submit(self, batches, steps):
+        return [self._pool.submit(_run_in_process, batch, steps) for batch in batches]
 
 
 def make_collector(backend: str, task: str = "clear_area", workers: int = 1, policy="random",
-                   task_kwargs: dict | None = None, **backend_options) -> Collector:
+                   task_kwargs: dict | None = None, observation_dtype: str = "float64",
+                   **backend_options) -> Collector:
     """A Collector of `backend` (one of BACKENDS); backend_options go to the Ray collector."""
     if backend not in BACKENDS:
         raise ValueError(f"backend = {backend!r}: must be one of {BACKENDS}")
     if backend == "ray":
         from viscera.scale.ray_actors import RayCollector  # Ray is an optional extra
-        return RayCollector(task, workers, policy, task_kwargs, **backend_options)
+        return RayCollector(task, workers, policy, task_kwargs, observation_dtype, **backend_options)
     if backend_options:
         raise ValueError(f"{sorted(backend_options)}: options of the 'ray' backend only")
     cls = {"serial": SerialCollector, "threads": ThreadCollector, "processes": ProcessCollector}[backend]
-    return cls(task, workers, policy, task_kwargs)
+    return cls(task, workers, policy, task_kwargs, observation_dtype)
 
 
 def collect(task: str, seeds, steps: int, workers: int = 1, backend: str = "serial", policy="random",
-            **task_kwargs) -> list[Trajectory]:
+            observation_dtype: str = "float64", **task_kwargs) -> list[Trajectory]:
     """One trajectory per seed, in seed order: `steps` actions of `policy` from each seed's reset.
 
-    task: a name in viscera.tasks.ALL; task_kwargs go to viscera.tasks.load (time_limit, ...).
+    task: a name in viscera.tasks.ALL; task_kwargs go to viscera.tasks.load (time_limit,
+    axis_samples, ...); observation_dtype "float32" halves the observations' bytes.
     The workers are started and stopped around the call: keep a make_collector(...) to reuse them.
     """
-    with make_collector(backend, task, workers, policy, task_kwargs) as collector:
+    with make_collector(backend, task, workers, policy, task_kwargs, observation_dtype) as collector:
         return collector.collect(seeds, steps)

@@ -40,9 +40,9 @@ class RayCollector(Collector):
     backend = "ray"
 
     def __init__(self, task: str = "clear_area", workers: int = 1, policy="random", task_kwargs: dict | None = None,
-                 cpus_per_worker: float = 1.0, ray_init: dict | None = None, max_restarts: int = 3,
+                 observation_dtype: str = "float64", cpus_per_worker: float = 1.0, ray_init: dict | None = None, max_restarts: int = 3,
                  start_timeout: float = 120.0):
-        super().__init__(task, workers, policy, task_kwargs)
+        super().__init__(task, workers, policy, task_kwargs, observation_dtype)
         if not (isinstance(cpus_per_worker, (int, float)) and cpus_per_worker > 0):
             raise ValueError(f"cpus_per_worker = {cpus_per_worker!r}: must be a positive number")
         max_restarts = checked_integer("max_restarts", max_restarts, 0)
@@ -52,7 +52,7 @@ class RayCollector(Collector):
             ray.init(**(ray_init or {}))
         actor = ray.remote(num_cpus=cpus_per_worker, max_restarts=max_restarts,
                            max_task_retries=max_restarts)(RolloutWorker)
-        self._actors = [actor.remote(self.task, self.policy, self.task_kwargs) for _ in range(self.workers)]
+        self._actors = [actor.remote(*self._worker_arguments()) for _ in range(self.workers)]
         started = [a.ready.remote() for a in self._actors]
         _, pending = ray.wait(started, num_returns=len(started), timeout=start_timeout)
         if pending:
@@ -64,8 +64,15 @@ class RayCollector(Collector):
                 f"the cluster has {total:g} CPUs and {free:g} free")
         ray.get(started)  # an actor that failed to construct raises here
 
-    def _run(self, batches, steps):
-        return ray.get([actor.run.remote(batch, steps) for actor, batch in zip(self._actors, batches)])
+    def _submit(self, batches, steps):
+        return [actor.run.remote(batch, steps) for actor, batch in zip(self._actors, batches)]
+
+    def _result(self, handle):
+        return ray.get(handle)
+
+    def _first_done(self, handles):
+        done, rest = ray.wait(handles, num_returns=1)
+        return done[0], rest
 
     def close(self):
         for actor in self._actors:

@@ -53,7 +53,7 @@ class Trajectory:
     """One episode's record; unpacks as (observations, actions, rewards)."""
 
     seed: int
-    observations: np.ndarray   # (T + 1, D) float64: the reset observation, then one after each action
+    observations: np.ndarray   # (T + 1, D) float64 (or float32 if asked): the reset observation, then one per action
     actions: np.ndarray        # (T, nu): the actions taken (the tools' actuator controls)
     rewards: np.ndarray        # (T,): the task's reward after each action
     discounts: np.ndarray      # (T,): dm_env discounts (0 where the task ended the episode)
@@ -126,6 +126,7 @@ def gesture_policy(env, seed: int):
 
 
 POLICIES = {"random": random_policy, "gesture": gesture_policy}
+OBSERVATION_DTYPES = ("float64", "float32")
 
 
 def policy_factory(policy):
@@ -143,16 +144,22 @@ class RolloutWorker:
     """Environments of one task and a policy per seed (see the module doc).
 
     task: a name in viscera.tasks.ALL; task_kwargs: passed to viscera.tasks.load
-    (time_limit, control_timestep, ...); policy: a name in POLICIES or a picklable
-    callable (env, seed) -> policy, a policy mapping a dm_env TimeStep to an action.
+    (time_limit, control_timestep, axis_samples, ...); policy: a name in POLICIES or a
+    picklable callable (env, seed) -> policy, a policy mapping a dm_env TimeStep to an
+    action; observation_dtype: "float64" (exact) or "float32" (half the bytes to ship;
+    the policy still sees the float64 observation).
     """
 
-    def __init__(self, task: str = "clear_area", policy="random", task_kwargs: dict | None = None):
+    def __init__(self, task: str = "clear_area", policy="random", task_kwargs: dict | None = None,
+                 observation_dtype: str = "float64"):
         if task not in viscera.tasks.ALL:
             raise ValueError(f"task = {task!r}: must be one of {viscera.tasks.ALL}")
+        if observation_dtype not in OBSERVATION_DTYPES:
+            raise ValueError(f"observation_dtype = {observation_dtype!r}: must be one of {OBSERVATION_DTYPES}")
         self.task = task
         self.task_kwargs = dict(task_kwargs or {})
         self.make_policy = policy_factory(policy)
+        self.observation_dtype = np.dtype(observation_dtype)
         self.envs = []
 
     def _environments(self, count: int) -> list:
@@ -177,7 +184,7 @@ class RolloutWorker:
             nu = env.action_spec().shape[0]
             policies.append(self.make_policy(env, seed))
             time_steps.append(time_step)
-            records.append({"observations": np.empty((steps + 1, observations.size(places))),
+            records.append({"observations": np.empty((steps + 1, observations.size(places)), self.observation_dtype),
                             "actions": np.empty((steps, nu)), "rewards": np.empty(steps),
                             "discounts": np.empty(steps), "length": 0})
             records[-1]["observations"][0] = observations.flatten(time_step.observation, places)

@@ -5,7 +5,7 @@ on assets/scenes/abdomen.xml. Actions: the tools' position actuators (their
 control ranges). Observations, in order: tool joint positions, the force the
 intestine exerts on each tool (the tool force sensors), whether the grasper
 holds the intestine, intestine axis points
-(100 along the axis, m), and the target's coverage grid. Reward: the fraction
+(`axis_samples`, default 100, evenly along the axis, m), and the target's coverage grid. Reward: the fraction
 of the target area uncovered, in [0, 1]: the target rectangle is sampled on a
 10 x 10 grid of points, and a point is covered when the intestine's tube lies
 over it (an axis point within one radius of it in the wall's plane). The
@@ -88,12 +88,16 @@ class Physics(dm_mujoco.Physics):
         return self.named.data.qpos[names].copy()
 
 
+MAX_AXIS_SAMPLES = 100_000
+
+
 class ClearArea(base.Task):
     """Uncover the target area; reward is the uncovered fraction."""
 
-    def __init__(self, random=None, end_on_success: bool = True):
+    def __init__(self, random=None, end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES):
         super().__init__(random=random)
         self.end_on_success = end_on_success
+        self.axis_samples = axis_samples
 
     def initialize_episode(self, physics: Physics) -> None:
         # the intestine starts from the scene's shape (reset writes it); tools start withdrawn
@@ -104,7 +108,7 @@ class ClearArea(base.Task):
         observation["tool_joints"] = physics.tool_joints()
         observation["tool_forces"] = physics.tool_forces()
         observation["grasper_holding"] = physics.holding()
-        observation["intestine_axis"] = physics.axis_points().ravel()
+        observation["intestine_axis"] = physics.axis_points(self.axis_samples).ravel()
         observation["target_coverage"] = physics.coverage()
         return observation
 
@@ -116,9 +120,14 @@ class ClearArea(base.Task):
 
 
 def load(seed: int | None = None, time_limit: float = 20.0, control_timestep: float = 0.02,
-         end_on_success: bool = True) -> control.Environment:
+         end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES) -> control.Environment:
     """The clear_area environment (time limit and control period in s; with end_on_success
-    False an uncovered target does not end the episode, e.g. to watch a gesture finish)."""
+    False an uncovered target does not end the episode, e.g. to watch a gesture finish;
+    axis_samples: the intestine axis points observed, fewer for less data per step)."""
+    if isinstance(axis_samples, bool) or not isinstance(axis_samples, (int, np.integer)) \
+            or not 2 <= axis_samples <= MAX_AXIS_SAMPLES:
+        raise ValueError(f"axis_samples = {axis_samples!r}: must be an integer in [2, {MAX_AXIS_SAMPLES}]")
     physics = Physics.from_xml_path(str(_scene_path()))
-    task = ClearArea(random=np.random.RandomState(seed), end_on_success=end_on_success)
+    task = ClearArea(random=np.random.RandomState(seed), end_on_success=end_on_success,
+                     axis_samples=int(axis_samples))
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
