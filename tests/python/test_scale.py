@@ -69,17 +69,38 @@ def test_batches_as_completed_are_the_serial_trajectories(serial, local_ray, bac
         assert_same([by_seed[seed] for seed in SEEDS], serial)
         early = collector.collect_as_completed(SEEDS, STEPS)
         next(early)
+        with pytest.raises(RuntimeError, match="the collector is busy"):  # one worker is still stepping
+            collector.collect(SEEDS, STEPS)
         early.close()  # waits for the other batch: the workers are free again
+        collector.collect_as_completed(SEEDS, STEPS)  # dropped unread: waits, then frees the collector
         assert_same(collector.collect(SEEDS, STEPS), serial)
+    with pytest.raises(RuntimeError, match=f"this {backend} collector is closed"):
+        collector.collect(SEEDS, STEPS)
+
+
+def nan_for_seed_5(env, seed):
+    """A policy that breaks on one seed only."""
+    return (lambda time_step: np.full(9, np.nan)) if seed == 5 else scale.RandomPolicy(env, seed)
+
+
+def test_a_failed_batch_leaves_the_collector_ready(serial):
+    with scale.make_collector("threads", "clear_area", workers=2, policy=nan_for_seed_5) as collector:
+        with pytest.raises(ValueError, match="for seed 5 at step 0"):
+            collector.collect(SEEDS, STEPS)
+        with pytest.raises(ValueError, match="for seed 5 at step 0"):
+            list(collector.collect_as_completed(SEEDS, STEPS))
+        rest = collector.collect(SEEDS[1:], STEPS)  # the other worker finished, nothing is busy
+    assert len(rest) == 2 and all(a.same_as(b) for a, b in zip(rest, serial[1:]))
 
 
 def test_a_killed_ray_actor_is_restarted_and_its_batch_redone(serial, local_ray):
     ray = local_ray
     with scale.make_collector("ray", "clear_area", workers=2) as collector:
         actor = collector._actors[1]
-        pending = actor.run.remote(SEEDS[1:], STEPS)  # a batch in flight
-        ray.kill(actor, no_restart=False)  # as if its process had died mid-batch
-        assert all(a.same_as(b) for a, b in zip(ray.get(pending), serial[1:]))  # retried on the restarted actor
+        pending = actor.run.remote(SEEDS[1:], STEPS)  # a batch submitted (queued or running)
+        ray.kill(actor, no_restart=False)  # as if its process had died
+        redone = ray.get(pending)  # retried on the restarted actor
+        assert len(redone) == 2 and all(a.same_as(b) for a, b in zip(redone, serial[1:]))
         assert_same(collector.collect(SEEDS, STEPS), serial)
 
 
@@ -119,7 +140,7 @@ def test_a_reduced_observation_ships_a_third_of_the_bytes():
     for small, large in zip(reduced, full):
         assert small.observations.dtype == np.float32 and small.observations.shape == (STEPS + 1, 9 + 12 + 1 + 150 + 100)
         assert np.array_equal(small.observations, large.observations.astype(np.float32))
-        assert np.array_equal(small.actions, large.actions)  # the policy saw the same float64 observations
+        assert np.array_equal(small.actions, large.actions)  # the same seeds' policies, the same episodes
     default = scale.collect("clear_area", SEEDS[:1], STEPS, backend="serial")[0]
     per_step_records = STEPS * (9 + 1 + 1) * 8  # actions, rewards, discounts: float64
     assert reduced[0].nbytes == (STEPS + 1) * 272 * 4 + per_step_records

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import multiprocessing
+import threading
 
 import numpy as np
 
@@ -43,7 +44,12 @@ def split_seeds(seeds, workers: int) -> list[list[int]]:
 
 
 class Collector:
-    """Workers of one backend, kept between collect calls; a context manager (close stops them)."""
+    """Workers of one backend, kept between collect calls; a context manager (close stops them).
+
+    One collection at a time: a worker's environments must never be stepped by two calls
+    at once, so a collect() while another runs (another thread, or a collect_as_completed
+    iterator not yet exhausted or closed) raises RuntimeError instead.
+    """
 
     backend = "serial"
 
@@ -54,38 +60,48 @@ class Collector:
         RolloutWorker(task, policy, task_kwargs, observation_dtype)
         self.task, self.workers, self.policy, self.task_kwargs = task, workers, policy, dict(task_kwargs or {})
         self.observation_dtype = observation_dtype
+        self._busy = threading.Lock()
+        self._closed = False
 
     def _worker_arguments(self) -> tuple:
         return self.task, self.policy, self.task_kwargs, self.observation_dtype
 
-    def _batches(self, seeds, steps) -> tuple[list[int], list[list[int]], int]:
+    def _start(self, seeds, steps) -> tuple[list[int], list]:
+        """Checked seeds and the submitted handles; holds the busy lock (released by the caller)."""
         seeds = checked_seeds(seeds)
         steps = checked_integer("steps", steps, 0)
-        return seeds, [b for b in split_seeds(seeds, self.workers) if b], steps
+        if self._closed:
+            raise RuntimeError(f"this {self.backend} collector is closed")
+        if not self._busy.acquire(blocking=False):
+            raise RuntimeError("the collector is busy: another collection is running (another thread, or a "
+                               "collect_as_completed iterator not yet exhausted or closed)")
+        try:
+            return seeds, self._submit([b for b in split_seeds(seeds, self.workers) if b], steps)
+        except BaseException:
+            self._busy.release()
+            raise
 
     def collect(self, seeds, steps: int) -> list[Trajectory]:
         """One trajectory per seed, in the order of `seeds` (see worker.RolloutWorker.run)."""
-        seeds, batches, steps = self._batches(seeds, steps)
-        trajectories = [t for handle in self._submit(batches, steps) for t in self._result(handle)]
-        assert [t.seed for t in trajectories] == seeds
+        seeds, handles = self._start(seeds, steps)
+        try:
+            trajectories = [t for handle in handles for t in self._result(handle)]
+        finally:
+            self._wait_all(handles)  # also when a batch failed: the other workers finish first
+            self._busy.release()
+        if [t.seed for t in trajectories] != seeds:
+            raise RuntimeError("the workers returned trajectories out of seed order")  # a bug, never expected
         return trajectories
 
     def collect_as_completed(self, seeds, steps: int):
-        """Yield each worker's batch of trajectories (its seeds, in order) as soon as it is done.
+        """An iterator over each worker's batch of trajectories (its seeds, in order), as soon as it is done.
 
         The same trajectories as collect(), in the order the workers finish: a learner can
-        start on the first batches while stragglers run. Closing the generator early waits
-        for the batches in flight, so the workers are free for the next call.
+        start on the first batches while stragglers run. Arguments are checked and the
+        batches submitted at the call. Until the iterator is exhausted, closed (close(), a
+        with block) or dropped, the collector is busy; closing early waits for the batches in flight.
         """
-        seeds, batches, steps = self._batches(seeds, steps)
-        pending = self._submit(batches, steps)
-        try:
-            while pending:
-                done, pending = self._first_done(pending)
-                yield self._result(done)
-        finally:
-            for handle in pending:
-                self._result(handle)
+        return _AsCompleted(self, self._start(seeds, steps)[1])
 
     # a backend submits batches as handles, then turns a handle into its trajectories
     def _submit(self, batches: list[list[int]], steps: int) -> list:
@@ -98,13 +114,58 @@ class Collector:
         """A finished handle, and the others."""
         return handles[0], handles[1:]
 
+    def _wait_all(self, handles: list) -> None:
+        """Return once every handle has finished, failed or not; raises nothing."""
+
     def close(self) -> None:
+        """Stop the workers; collecting afterwards raises RuntimeError."""
+        self._closed = True
+        self._shutdown()
+
+    def _shutdown(self) -> None:
         pass
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
+        self.close()
+
+
+class _AsCompleted:
+    """The iterator of Collector.collect_as_completed: holds the collector's busy lock until closed."""
+
+    def __init__(self, collector: Collector, handles: list):
+        self._collector, self._pending, self._open = collector, list(handles), True
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> list[Trajectory]:
+        if not self._pending:
+            self.close()
+            raise StopIteration
+        try:
+            done, self._pending = self._collector._first_done(self._pending)
+            return self._collector._result(done)
+        except BaseException:
+            self.close()  # a failed batch: wait for the others, free the collector, then raise
+            raise
+
+    def close(self) -> None:
+        if self._open:
+            self._open = False
+            self._collector._wait_all(self._pending)
+            self._pending = []
+            self._collector._busy.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
         self.close()
 
 
@@ -116,7 +177,8 @@ class SerialCollector(Collector):
         self._worker = RolloutWorker(*self._worker_arguments())
 
     def _submit(self, batches, steps):
-        return [self._worker.run([s for b in batches for s in b], steps)]  # done already: the handle is the result
+        seeds = [s for b in batches for s in b]
+        return [self._worker.run(seeds, steps)] if seeds else []  # done already: the handle is the result
 
     def _result(self, handle):
         return handle
@@ -132,7 +194,10 @@ class _PoolCollector(Collector):
         done = next(concurrent.futures.as_completed(handles))
         return done, [h for h in handles if h is not done]
 
-    def close(self):
+    def _wait_all(self, handles):
+        concurrent.futures.wait(handles)
+
+    def _shutdown(self):
         self._pool.shutdown(wait=True)
 
 

@@ -74,7 +74,11 @@ class RayCollector(Collector):
         done, rest = ray.wait(handles, num_returns=1)
         return done[0], rest
 
-    def close(self):
+    def _wait_all(self, handles):
+        if handles:
+            ray.wait(handles, num_returns=len(handles))
+
+    def _shutdown(self):
         for actor in self._actors:
             ray.kill(actor)
         self._actors = []
