@@ -2,6 +2,7 @@
 
     import gymnasium as gym
     env = gym.make("viscera/ClearArea-v0")            # registered when this module is imported
+    envs = gym.make_vec("viscera/ClearArea-v0", num_envs=4, vectorization_mode="vector_entry_point")  # threads
     env = viscera.gymnasium_env.TaskEnv("clear_area", seed=0)
 
 A thin adapter of ours rather than shimmy's DmControlCompatibilityV0: shimmy
@@ -125,7 +126,8 @@ def register() -> None:
     """Register the gymnasium ids of ENV_IDS (idempotent)."""
     for task, env_id in ENV_IDS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=TaskEnv, kwargs={"task": task})
+            gymnasium.register(id=env_id, entry_point=TaskEnv, vector_entry_point="viscera.vector:make_threads",
+                               kwargs={"task": task})
 
 
 register()

@@ -115,3 +115,10 @@ def make(task: str = "clear_area", num_envs: int = 2, seed: int | None = 0, back
         return ThreadVectorEnv(env_fns, workers=workers)
     # spawn: a fresh interpreter per worker, safe beside threads (MuJoCo's, a learner's) in the parent
     return AsyncVectorEnv(env_fns, context="spawn")
+
+
+def make_threads(num_envs: int, task: str = "clear_area", seed: int | None = 0, workers: int | None = None,
+                 **env_kwargs) -> ThreadVectorEnv:
+    """The registered ids' vector entry point: gymnasium.make_vec(id, num_envs, vectorization_mode=
+    "vector_entry_point") gives a ThreadVectorEnv ("sync" and "async" give gymnasium's own)."""
+    return make(task, num_envs, seed, "threads", workers, **env_kwargs)

@@ -112,6 +112,21 @@ def test_backends_equal_the_serial_vector_env(serial_record, backend, workers):
     assert truncations.any()  # the run crossed an autoreset
 
 
+def test_gymnasium_make_vec_gives_every_mode(serial_record):
+    """gym.make_vec on the registered id: sync, async (spawned) and our threads entry point step alike."""
+    records = []
+    for mode, options in (("sync", {}), ("async", {"vector_kwargs": {"context": "spawn"}}),
+                          ("vector_entry_point", {})):
+        envs = gym.make_vec("viscera/ClearArea-v0", num_envs=3, vectorization_mode=mode, **SHORT, **options)
+        assert isinstance(envs, (gym.vector.SyncVectorEnv, gym.vector.AsyncVectorEnv, vector.ThreadVectorEnv))
+        records.append(run(envs))
+    threaded = gym.make_vec("viscera/ClearArea-v0", num_envs=1, vectorization_mode="vector_entry_point")
+    assert isinstance(threaded, vector.ThreadVectorEnv)
+    threaded.close()
+    for record in records:
+        assert_same(record, serial_record)
+
+
 def test_same_step_autoreset_matches_gymnasium():
     fns = [lambda i=i: gymnasium_env.TaskEnv("clear_area", seed=i, **SHORT) for i in range(2)]
     reference = run(gym.vector.SyncVectorEnv(fns, autoreset_mode="SameStep"), steps=5)  # the 5th step ends
