@@ -29,6 +29,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from viscera.checks import finite_array
+
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
 
@@ -51,25 +53,6 @@ def state_of(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
 class BatchResult:
     state: np.ndarray        # (N, T, nstate) FULLPHYSICS after each step
     sensordata: np.ndarray   # (N, T, nsensordata) as computed during each step
-
-
-def finite_array(name: str, value, shape: tuple) -> np.ndarray:
-    """`value` as a C-contiguous float64 array of `shape` (None: any size there), all finite.
-
-    Raises ValueError naming `name`, and the shape or the first non-finite entry and its value.
-    """
-    try:
-        array = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"{name} = {value!r}: not an array of numbers ({error})") from None
-    if array.ndim != len(shape) or any(want is not None and got != want for got, want in zip(array.shape, shape)):
-        expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
-        raise ValueError(f"{name} has shape {array.shape}, expected {expected}")
-    bad = np.argwhere(~np.isfinite(array))
-    if len(bad):
-        index = tuple(int(i) for i in bad[0])
-        raise ValueError(f"{name}{list(index)} = {float(array[index])}: must be finite")
-    return array
 
 
 def _check_inputs(model, initial_state, control, initial_warmstart):
@@ -132,20 +115,29 @@ class BatchStepper:
         self.close()
 
 
-def serial_step(model: mujoco.MjModel, initial_state, control, initial_warmstart=None) -> BatchResult:
-    """The same result as BatchStepper.step, by mj_step from Python on one MjData (the reference)."""
-    initial_state, control, initial_warmstart = _check_inputs(model, initial_state, control, initial_warmstart)
+def serial_step(model, initial_state, control, initial_warmstart=None) -> BatchResult:
+    """The same result as BatchStepper.step, by mj_step from Python (the reference).
+
+    model: one MjModel, or one per batch entry (as mujoco.rollout takes them; same sizes).
+    """
+    models = list(model) if isinstance(model, (list, tuple)) else None
+    first = models[0] if models else model
+    initial_state, control, initial_warmstart = _check_inputs(first, initial_state, control, initial_warmstart)
     batch, steps = control.shape[:2]
+    if models is not None and len(models) != batch:
+        raise ValueError(f"model holds {len(models)} models for {batch} batch entries")
     state = np.empty((batch, steps, initial_state.shape[1]))
-    sensordata = np.empty((batch, steps, model.nsensordata))
-    data = mujoco.MjData(model)
+    sensordata = np.empty((batch, steps, first.nsensordata))
+    datas = {}
     for n in range(batch):
-        mujoco.mj_resetData(model, data)
-        mujoco.mj_setState(model, data, initial_state[n], FULLPHYSICS)
+        entry_model = models[n] if models else model
+        data = datas.setdefault(id(entry_model), mujoco.MjData(entry_model))
+        mujoco.mj_resetData(entry_model, data)
+        mujoco.mj_setState(entry_model, data, initial_state[n], FULLPHYSICS)
         data.qacc_warmstart[:] = initial_warmstart[n]
         for t in range(steps):
             data.ctrl[:] = control[n, t]
-            mujoco.mj_step(model, data)
-            mujoco.mj_getState(model, data, state[n, t], FULLPHYSICS)
+            mujoco.mj_step(entry_model, data)
+            mujoco.mj_getState(entry_model, data, state[n, t], FULLPHYSICS)
             sensordata[n, t] = data.sensordata
     return BatchResult(state=state, sensordata=sensordata)

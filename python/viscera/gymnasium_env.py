@@ -38,7 +38,7 @@ from dm_env import specs
 
 import viscera.tasks
 from viscera import observations
-from viscera.batch import finite_array
+from viscera.checks import finite_array
 
 ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
 
@@ -96,8 +96,7 @@ class TaskEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is not None:
-            # the dm_control task draws its episode randomness from this RandomState
-            self.dm_env.task._random = np.random.RandomState(seed)
+            viscera.tasks.reseed(self.dm_env, seed)
         time_step = self.dm_env.reset()
         self._episode_over = False
         return self.observation(time_step.observation), self._info(time_step)

@@ -31,7 +31,7 @@ from gymnasium.vector.utils import concatenate, iterate
 
 from viscera.batch import available_cores
 from viscera.gymnasium_env import TaskEnv
-from viscera.scale.worker import checked_integer
+from viscera.checks import checked_integer
 
 BACKENDS = ("serial", "threads", "processes")
 

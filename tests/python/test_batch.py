@@ -88,6 +88,8 @@ def test_refuses_wrong_shapes_by_name(abdomen):
         for chunk_size in (0, -1, 1.5):  # 0 divides by zero in rollout, -1 never ends
             with pytest.raises(ValueError, match=rf"chunk_size = {chunk_size}: must be None or an integer"):
                 stepper.step(initial, control, chunk_size=chunk_size)
+    with pytest.raises(ValueError, match="model holds 3 models for 2 batch entries"):
+        batch.serial_step([abdomen] * 3, initial, control)
     with pytest.raises(RuntimeError, match="closed"):
         stepper.step(initial, control)
     with pytest.raises(ValueError, match="threads = 0"):

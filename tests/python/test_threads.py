@@ -14,26 +14,11 @@ import pytest
 from mujoco import rollout
 
 import viscera
+from viscera.batch import serial_step  # mj_step from each FULLPHYSICS state with a zero warmstart
 from viscera.bench_rollout import batch_inputs  # bent intestines, smooth tool controls
 from viscera.tasks import clear_area
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
-
-
-def serial(models, initial, controls):
-    """States after each step, stepping every batch entry alone in one fresh MjData per model."""
-    batch, steps = controls.shape[:2]
-    out = np.empty((batch, steps, initial.shape[1]))
-    for b in range(batch):
-        model = models[b]
-        data = mujoco.MjData(model)
-        mujoco.mj_setState(model, data, initial[b], FULLPHYSICS)
-        data.qacc_warmstart[:] = 0.0  # rollout's default initial warmstart
-        for t in range(steps):
-            data.ctrl[:] = controls[b, t]
-            mujoco.mj_step(model, data)
-            mujoco.mj_getState(model, data, out[b, t], FULLPHYSICS)
-    return out
 
 
 def positions(model, state):
@@ -47,7 +32,7 @@ def test_cavity_scene_on_two_threads_is_bit_identical_to_serial():
     model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
     initial, controls = batch_inputs(model, 6, 60, seed=1)
     threaded, sensors = rollout.rollout(model, [mujoco.MjData(model) for _ in range(2)], initial, controls)
-    expected = serial([model] * 6, initial, controls)
+    expected = serial_step(model, initial, controls).state
     np.testing.assert_array_equal(threaded, expected)
     assert np.isfinite(sensors).all() and np.abs(threaded[:, -1] - initial).max() > 1e-3  # something moved
 
@@ -74,7 +59,7 @@ def test_models_of_different_configs_on_two_threads_match_serial():
     batch_models = [m for m in models for _ in range(2)]
     controls = np.zeros((6, 200, 0))
     threaded, _ = rollout.rollout(batch_models, [mujoco.MjData(models[0]) for _ in range(2)], initial, controls)
-    expected = serial(batch_models, initial, controls)
+    expected = serial_step(batch_models, initial, controls).state
     np.testing.assert_array_equal(threaded, expected)
     # the configs matter: the same start ends differently under each model
     ends = [positions(m, threaded[2 * i, -1]) for i, m in enumerate(models)]

@@ -29,7 +29,8 @@ import threading
 
 import numpy as np
 
-from viscera.scale.worker import POLICIES, RandomPolicy, RolloutWorker, Trajectory, checked_integer, checked_seeds
+from viscera.checks import checked_integer
+from viscera.scale.worker import POLICIES, RandomPolicy, RolloutWorker, Trajectory, checked_seeds
 
 BACKENDS = ("serial", "threads", "processes", "ray")
 

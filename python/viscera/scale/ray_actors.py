@@ -28,7 +28,8 @@ batch is bit-identical to the lost one (tested by killing an actor).
 from __future__ import annotations
 
 from viscera.scale import Collector
-from viscera.scale.worker import RolloutWorker, checked_integer
+from viscera.checks import checked_integer
+from viscera.scale.worker import RolloutWorker
 
 try:
     import ray

@@ -22,18 +22,9 @@ import numpy as np
 
 import viscera.tasks
 from viscera import observations
-from viscera.batch import finite_array
+from viscera.checks import checked_integer, finite_array
 
 SEED_LIMIT = 2 ** 32  # numpy's RandomState, which dm_control tasks draw from, takes seeds below this
-
-
-def checked_integer(name: str, value, minimum: int) -> int:
-    """`value` as an int, refused by name unless it is an integer of at least `minimum`."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} = {value!r}: must be an integer")
-    if value < minimum:
-        raise ValueError(f"{name} = {value}: must be at least {minimum}")
-    return int(value)
 
 
 def checked_seeds(seeds) -> list[int]:
@@ -107,7 +98,7 @@ class RandomPolicy:
             self.step = 0
             start = np.clip(self.physics.data.ctrl, self.low, self.high)
             self.knots = (start, self.rng.uniform(self.low, self.high))
-        phase, within = divmod(self.step, self.knot_steps)
+        within = self.step % self.knot_steps
         if within == 0 and self.step > 0:
             self.knots = (self.knots[1], self.rng.uniform(self.low, self.high))
         self.step += 1
@@ -178,7 +169,7 @@ class RolloutWorker:
         envs = self._environments(len(seeds))
         places, time_steps, policies, records = None, [], [], []
         for env, seed in zip(envs, seeds):
-            env.task._random = np.random.RandomState(seed)  # what tasks.load(seed=seed) gives the task
+            viscera.tasks.reseed(env, seed)
             time_step = env.reset()
             places = places or observations.layout(env.observation_spec())
             nu = env.action_spec().shape[0]

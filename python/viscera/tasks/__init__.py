@@ -2,9 +2,12 @@
 
     env = viscera.tasks.load("clear_area", seed=0)   # a dm_env.Environment
     viscera.tasks.ALL                                 # the task names
+    viscera.tasks.reseed(env, 1)                      # as if loaded with seed 1 (for reused envs)
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 from viscera.tasks import clear_area
 
@@ -17,3 +20,8 @@ def load(name: str, seed: int | None = None, **kwargs):
     if name not in _TASKS:
         raise KeyError(f"unknown task {name!r}; known: {ALL}")
     return _TASKS[name](seed=seed, **kwargs)
+
+
+def reseed(env, seed: int | None) -> None:
+    """Give a loaded environment's task the RandomState that load(name, seed) would have given it."""
+    env.task._random = np.random.RandomState(seed)  # dm_control tasks draw their episodes from it

@@ -23,6 +23,7 @@ from dm_control.rl import control
 from dm_control.suite import base
 
 import viscera
+from viscera.checks import checked_integer
 
 SCENE = pathlib.Path(__file__).resolve().parents[3] / "assets" / "scenes" / "abdomen.xml"
 GRID = 10            # target sampling points per side
@@ -124,10 +125,10 @@ def load(seed: int | None = None, time_limit: float = 20.0, control_timestep: fl
     """The clear_area environment (time limit and control period in s; with end_on_success
     False an uncovered target does not end the episode, e.g. to watch a gesture finish;
     axis_samples: the intestine axis points observed, fewer for less data per step)."""
-    if isinstance(axis_samples, bool) or not isinstance(axis_samples, (int, np.integer)) \
-            or not 2 <= axis_samples <= MAX_AXIS_SAMPLES:
-        raise ValueError(f"axis_samples = {axis_samples!r}: must be an integer in [2, {MAX_AXIS_SAMPLES}]")
+    axis_samples = checked_integer("axis_samples", axis_samples, 2)
+    if axis_samples > MAX_AXIS_SAMPLES:
+        raise ValueError(f"axis_samples = {axis_samples}: must be at most {MAX_AXIS_SAMPLES}")
     physics = Physics.from_xml_path(str(_scene_path()))
     task = ClearArea(random=np.random.RandomState(seed), end_on_success=end_on_success,
-                     axis_samples=int(axis_samples))
+                     axis_samples=axis_samples)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)

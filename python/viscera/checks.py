@@ -1,0 +1,33 @@
+"""Argument checks shared by the Python layers: refuse bad input by name before it reaches MuJoCo."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def finite_array(name: str, value, shape: tuple) -> np.ndarray:
+    """`value` as a C-contiguous float64 array of `shape` (None: any size there), all finite.
+
+    Raises ValueError naming `name`, and the shape or the first non-finite entry and its value.
+    """
+    try:
+        array = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} = {value!r}: not an array of numbers ({error})") from None
+    if array.ndim != len(shape) or any(want is not None and got != want for got, want in zip(array.shape, shape)):
+        expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name} has shape {array.shape}, expected {expected}")
+    bad = np.argwhere(~np.isfinite(array))
+    if len(bad):
+        index = tuple(int(i) for i in bad[0])
+        raise ValueError(f"{name}{list(index)} = {float(array[index])}: must be finite")
+    return array
+
+
+def checked_integer(name: str, value, minimum: int) -> int:
+    """`value` as an int, refused by name unless it is an integer of at least `minimum`."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} = {value!r}: must be an integer")
+    if value < minimum:
+        raise ValueError(f"{name} = {value}: must be at least {minimum}")
+    return int(value)
