@@ -1,7 +1,9 @@
 """viscera: a real-time laparoscopic intestine simulator on MuJoCo.
 
-Importing the package registers the ``viscera.intestine`` MuJoCo plugin
-(once per process), so any MJCF that declares it compiles afterwards.
+Importing the package registers the viscera.intestine MuJoCo plugin (once per
+process), so any MJCF that declares it compiles afterwards, and registers the
+gymnasium ids (viscera/ClearArea-v0, ...) whenever gymnasium is imported, before
+or after viscera, without importing gymnasium itself.
 """
 
 import os
@@ -11,7 +13,7 @@ import os
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "egl"
 
-from viscera import _library  # noqa: E402
+from viscera import _library, gymnasium_ids as _gymnasium_ids  # noqa: E402
 from viscera.intestine import (  # noqa: E402
     PLUGIN_NAME, Intestine, add_to_mjcf, attribute_names, config_strings, extension_xml, intestine, intestines,
     skin, spline_points)
@@ -19,6 +21,7 @@ from viscera.intestine import (  # noqa: E402
 __version__ = "0.1.0"
 
 PLUGIN_LIBRARY = _library.load()
+_gymnasium_ids.install()
 
 __all__ = [
     "PLUGIN_LIBRARY", "PLUGIN_NAME", "Intestine", "add_to_mjcf", "attribute_names", "config_strings",

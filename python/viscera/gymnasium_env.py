@@ -1,7 +1,7 @@
 """The viscera tasks behind the gymnasium interface, with dm_env's semantics kept exact.
 
     import gymnasium as gym
-    env = gym.make("viscera/ClearArea-v0")            # registered when this module is imported
+    env = gym.make("viscera/ClearArea-v0")            # registered by import viscera (viscera.gymnasium_ids)
     envs = gym.make_vec("viscera/ClearArea-v0", num_envs=4, vectorization_mode="vector_entry_point")  # threads
     env = viscera.gymnasium_env.TaskEnv("clear_area", seed=0)
 
@@ -39,8 +39,6 @@ from dm_env import specs
 import viscera.tasks
 from viscera import observations
 from viscera.checks import finite_array
-
-ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
 
 
 def _box(spec) -> gymnasium.spaces.Box:
@@ -119,14 +117,3 @@ class TaskEnv(gymnasium.Env):
             height, width = self.render_size
             return self.dm_env.physics.render(height=height, width=width)
         return None
-
-
-def register() -> None:
-    """Register the gymnasium ids of ENV_IDS (idempotent)."""
-    for task, env_id in ENV_IDS.items():
-        if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=TaskEnv, vector_entry_point="viscera.vector:make_threads",
-                               kwargs={"task": task})
-
-
-register()

@@ -1,0 +1,64 @@
+"""viscera's gymnasium ids, registered whenever both viscera and gymnasium are imported.
+
+gymnasium 1.x loads no plugins by entry point: an environment package registers
+its ids when it is imported (ale_py, shimmy), so that all of these work:
+
+    import gymnasium as gym, viscera
+    gym.make("viscera/ClearArea-v0")
+    gym.register_envs(viscera)                      # the same, spelled for linters
+    gym.make("viscera:viscera/ClearArea-v0")        # gymnasium imports viscera itself
+
+`import viscera` must stay cheap and must not need gymnasium, so it does not
+import gymnasium (about 50 ms here): if gymnasium is already imported the ids are
+registered at once, otherwise `install()` registers them the moment gymnasium's
+own import finishes. Entry points are strings, so registering imports neither the
+tasks nor dm_control; they load on the first `gym.make`.
+"""
+
+from __future__ import annotations
+
+import importlib.abc
+import importlib.util
+import sys
+
+# task name (viscera.tasks.ALL) -> gymnasium id
+ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
+
+
+def register() -> None:
+    """Register the ids of ENV_IDS with gymnasium (idempotent; imports gymnasium)."""
+    import gymnasium
+    for task, env_id in ENV_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point="viscera.gymnasium_env:TaskEnv",
+                               vector_entry_point="viscera.vector:make_threads", kwargs={"task": task})
+
+
+class _RegisterAfterImport(importlib.abc.MetaPathFinder):
+    """Finds gymnasium's own spec and makes its loader call register() once gymnasium has run."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname != "gymnasium":
+            return None
+        sys.meta_path.remove(self)  # one shot; also keeps the lookup below from finding us again
+        spec = importlib.util.find_spec("gymnasium")
+        if spec is None or spec.loader is None:
+            return spec  # not installed: the import fails as it would without viscera
+        loader = spec.loader
+        exec_module = loader.exec_module
+
+        def exec_then_register(module):
+            exec_module(module)
+            register()
+
+        # on this one loader instance only: spec.loader stays gymnasium's own (resources, reload)
+        loader.exec_module = exec_then_register
+        return spec
+
+
+def install() -> None:
+    """Register now if gymnasium is imported, else as soon as it is (called by `import viscera`)."""
+    if sys.modules.get("gymnasium") is not None:
+        register()
+    elif not any(isinstance(finder, _RegisterAfterImport) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _RegisterAfterImport())
