@@ -37,6 +37,8 @@ typedef struct intestine {
   vsc_convex* convex;     // hulls of mesh geoms (geom_count, face_count 0 elsewhere)
   vsc_heightfield* heightfield;  // height fields (geom_count)
   int warned_passive_off; // the passive-off warning was given for this data
+  int checked_start;      // the first step of this data looked for a start inside a geom
+  double frequency;       // highest angular frequency of the rod at its initial shape (rad/s, 0: not yet)
   vsc_grasp grasps[VSC_MAX_GRASPERS];  // the holds of this step
   int grasp_owner[VSC_MAX_GRASPERS];   // which grasper each hold belongs to
 } intestine;
@@ -504,6 +506,30 @@ static void release_slipping_grasps(const mjModel* m, const mjData* d, intestine
   }
 }
 
+// A start inside a geom is pushed out (at up to VSC_PUSH_OUT_SPEED), not
+// refused: say so once per data, naming the geom, since it is rarely meant.
+// Resting contact sinks m g / k per sphere (hundredths of a mm): only a tenth
+// of the radius counts.
+static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* q) {
+  it->checked_start = 1;
+  if (world->geom_count <= 0) return;
+  vsc_deepest_contact deepest;
+  vsc_rod_contact_energy(it->rod, world, q, &deepest);
+  if (!(deepest.depth > 0.1 * it->config.rod.radius) || deepest.geom < 0) return;
+  int g = it->geom_ids[deepest.geom];
+  const char* name = mj_id2name(m, mjOBJ_GEOM, g);
+  char unnamed[32];
+  if (!name) {
+    snprintf(unnamed, sizeof(unnamed), "#%d (unnamed)", g);
+    name = unnamed;
+  }
+  mju_warning("viscera.intestine: the intestine starts inside geom '%s', %.3g mm deep at abscissa %.3g m; "
+              "it is pushed out at up to %g m/s. Move its start ('start', 'points' or 'box') clear of the geom",
+              name, 1e3 * deepest.depth,
+              it->config.rod.length * deepest.sphere / (double)(it->config.rod.collision_sphere_count - 1),
+              VSC_PUSH_OUT_SPEED);
+}
+
 // Integrate the rod over one MuJoCo step against the geoms' poses at the step start.
 static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
@@ -531,6 +557,15 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
     for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
   if (world.geom_count > 0) update_geoms(m, d, it);
+  if (!it->checked_start) {
+    // once per data, at its first step: init also runs inside MuJoCo's compiler,
+    // on a model whose flags are not the scene's
+    if (!contacts_enabled(m) && it->geom_count > 0)  // honoured (it passes through them), but rarely meant
+      mju_warning("viscera.intestine: the model disables contacts (<flag contact=\"disable\"/>): the "
+                  "intestine passes through every geom (its self-collision is its own config key, "
+                  "'self_collision')");
+    warn_start_inside(m, it, &world, state);
+  }
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
   world.geom_wrench = it->geom_wrench;
   mjtNum* grasp_state = state + grasp_address(m, &it->config);

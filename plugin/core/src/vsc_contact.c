@@ -36,6 +36,15 @@ static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], dou
   }
 }
 
+// Share of the penalty spring's push at separation speed `separation` (m/s):
+// all of it up to half VSC_PUSH_OUT_SPEED, none from VSC_PUSH_OUT_SPEED on, so
+// a sphere that starts deep in a geom leaves it at a bounded speed instead of
+// being shot out with all the spring's energy (1/2 k d^2 grows without bound).
+static inline double push_out_scale(double separation) {
+  double x = 2.0 - 2.0 * separation / VSC_PUSH_OUT_SPEED;
+  return x < 1.0 ? (x > 0.0 ? x : 0.0) : 1.0;
+}
+
 // Normal force, plus the friction force of a contact with relative velocity
 // `relative` (m/s); `elongation` is its stick spring (NULL: none). Writes the
 // total force into f and the tangential velocity into tangent.
@@ -43,7 +52,8 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
                             double mu, const double* elongation, double f[3], double tangent[3]) {
   double k = rod->def.contact_stiffness, c = rod->def.contact_damping;
   double approach = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
-  double normal = k * depth - c * approach;
+  double spring = depth < rod->def.radius ? depth : rod->def.radius;  // see VSC_PUSH_OUT_SPEED
+  double normal = push_out_scale(approach) * k * spring - c * approach;
   if (!(normal > 0.0)) return 0.0;  // penalty contacts push, never pull
   double ft[3];
   for (int a = 0; a < 3; ++a) {
@@ -519,6 +529,69 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     sphere_geom(&p, l->geom_pairs[2 * k + 1]);
   }
   return p.contacts;
+}
+
+// Potential of a penalty spring at depth d > 0 (J): 1/2 k d^2, linear past one
+// radius, where its force stops growing.
+static double spring_energy(const vsc_rod* rod, double depth) {
+  double k = rod->def.contact_stiffness, r = rod->def.radius;
+  return depth < r ? 0.5 * k * depth * depth : k * r * (depth - 0.5 * r);
+}
+
+// Penalty potential of one sphere-geom candidate (J), and the deepest rigid contact.
+static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int g, int i, vsc_deepest_contact* deepest) {
+  const vsc_geom* geom = &world->geoms[g];
+  double r = rod->def.radius, n[3];
+  const double* x = rod->sphere_xyz + 3 * i;
+  if (geom->bound_radius > 0.0) {
+    double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
+    double reach = geom->bound_radius + r;
+    if (dx * dx + dy * dy + dz * dz > reach * reach) return 0.0;
+  }
+  double depth = r - vsc_geom_distance(geom, x, n);
+  if (!(depth > 0.0)) return 0.0;
+  if (deepest && depth > deepest->depth) {
+    deepest->depth = depth;
+    deepest->geom = g;
+    deepest->sphere = i;
+  }
+  return spring_energy(rod, depth);
+}
+
+static double self_pair_energy(const vsc_rod* rod, int a, int b) {
+  if (b - a < rod->self_gap) return 0.0;
+  double s, t, d[3];
+  double depth = 2.0 * rod->def.radius - segment_gap(rod->sphere_xyz, a, b, &s, &t, d);
+  return depth > 0.0 ? spring_energy(rod, depth) : 0.0;
+}
+
+double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest) {
+  if (deepest) {
+    deepest->depth = 0.0;
+    deepest->geom = deepest->sphere = -1;
+  }
+  if (world->geom_count <= 0 && !rod->def.self_collision) return 0.0;
+  int spheres = rod->def.collision_sphere_count;
+  vsc_rod_update_spheres(rod, q, NULL);
+  vsc_contact_lists* l = rod->lists;
+  // the same candidate lists as the forces (rebuilt here if stale), so the
+  // energy costs one narrow phase; the touch records are left alone
+  int self_ok = !rod->def.self_collision || self_valid(rod) || build_self(rod, world);
+  int geoms_ok = geoms_valid(rod, world) || build_geoms(rod, world);
+  double energy = 0.0;
+  if (!self_ok || !geoms_ok) {  // a list overflowed: test everything
+    l->self_built = l->geoms_built = 0;
+    for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) energy += self_pair_energy(rod, a, b);
+    for (int g = 0; g < world->geom_count; ++g)
+      for (int i = 0; i < spheres; ++i) energy += sphere_geom_energy(rod, world, g, i, deepest);
+    return energy;
+  }
+  for (int k = 0; k < l->self_count && rod->def.self_collision; ++k)
+    energy += self_pair_energy(rod, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+  for (int k = 0; k < l->geom_count; ++k)
+    energy += sphere_geom_energy(rod, world, l->geom_pairs[2 * k], l->geom_pairs[2 * k + 1], deepest);
+  return energy;
 }
 
 int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]) {

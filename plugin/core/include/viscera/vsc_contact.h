@@ -51,6 +51,14 @@
 /// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3).
 #define VSC_TOUCH_SIZE 18
 
+/// A penalty spring stops pushing a sphere out once it separates this fast
+/// (m/s; it pushes fully below half of it), and its push stops growing past a
+/// depth of one radius (k r, hundreds of times a sphere's weight): a sphere
+/// that starts deep in a geom leaves at about this speed, whatever its depth
+/// (1/2 k d^2 would throw it out at d sqrt(k / m)). Only rebounds faster than
+/// half of it lose energy.
+#define VSC_PUSH_OUT_SPEED 1.0
+
 /// Candidate lists are built with this margin, as a multiple of the radius:
 /// they stay valid until a sphere or a geom moves by half of it.
 #define VSC_CONTACT_MARGIN 1.0
@@ -69,6 +77,20 @@ void vsc_stick_clear(double* stick, int sphere_count);
 /// times world->wrench_weight. rod->sphere_xyz and rod->sphere_velocity must be
 /// current (vsc_rod_update_spheres). Returns the number of contacts.
 int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q);
+
+/// The deepest sphere-geom contact found by vsc_rod_contact_energy.
+typedef struct vsc_deepest_contact {
+  double depth;  ///< penetration of the sphere into the geom (m, 0: none)
+  int geom;      ///< geom index in the world (-1: none)
+  int sphere;    ///< sphere index (-1: none)
+} vsc_deepest_contact;
+
+/// Potential energy of the contact penalty springs at positions q (J):
+/// 1/2 k d^2 over every sphere-geom and self-contact of depth d > 0 (friction's
+/// stick springs are not counted). If `deepest` is not NULL it receives the
+/// deepest sphere-geom contact. Overwrites rod->sphere_xyz (velocities and the
+/// touch records are left alone) and may rebuild the candidate lists.
+double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest);
 
 /// The strongest rigid contact of `sphere` in the last evaluation: returns its
 /// geom index (-1: none) and writes its unit normal, from the geom to the sphere.
