@@ -340,6 +340,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
                  VSC_MAX_COLLISION_SPHERES, &d->collision_sphere_count);
   if (failed) return -1;
+  c->auto_substeps = raw(&r, "substeps") == NULL;
   if (d->collision_sphere_count < 2)  // the default overflowed
     return fail(&r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
                 "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);

@@ -41,6 +41,7 @@ typedef struct vsc_grasper_config {
 typedef struct vsc_plugin_config {
   vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
   vsc_step_options step;      ///< integrator, substeps per MuJoCo step, divergence retries
+  int auto_substeps;          ///< 1: 'substeps' not given; chosen per step from the timestep (vsc_stable_substeps)
   double radius_min;          ///< skin radius between control points (m)
   double radius_max;          ///< skin radius at control points (m)
   double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]

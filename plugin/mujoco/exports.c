@@ -8,6 +8,7 @@
 
 #include "config.h"
 #include "viscera/vsc_grid.h"
+#include "viscera/vsc_integrate.h"
 #include "viscera/vsc_skin.h"
 #include "viscera/vsc_spline.h"
 
@@ -159,6 +160,31 @@ VSC_EXPORT int viscera_intestine_energy(const mjModel* m, int instance, const do
     out[0] = vsc_rod_elastic_energy(rod, q);
     out[1] = vsc_rod_gravity_energy(rod, gravity, q);
     out[2] = vsc_rod_kinetic_energy(rod, v);
+    status = 0;
+  }
+  vsc_rod_destroy(rod);
+  free(initial_q);
+  vsc_plugin_config_free(&config);
+  return status;
+}
+
+/// Stability of intestine `instance` at its initial shape: out = {highest
+/// elastic angular frequency (rad/s), highest contact angular frequency (rad/s),
+/// substeps the plugin takes per step of the model's timestep (the config's
+/// 'substeps' if given, else vsc_stable_substeps)}. Returns 0, or -1.
+VSC_EXPORT int viscera_intestine_stability(const mjModel* m, int instance, double out[3]) {
+  vsc_plugin_config config;
+  char error[256];
+  if (read_intestine(m, instance, &config)) return -1;
+  int n = config.rod.control_count, status = -1;
+  double* initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  vsc_rod* rod = NULL;
+  if (initial_q && vsc_plugin_config_layout(&config, initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_plugin_config_clamp(&config, initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_rod_create(&config.rod, &rod) == VSC_OK) {
+    vsc_rod_frequencies(rod, initial_q, &out[0], &out[1]);
+    out[2] = config.auto_substeps ? vsc_stable_substeps(config.step.integrator, out[0], out[1], m->opt.timestep)
+                                  : config.step.substeps;
     status = 0;
   }
   vsc_rod_destroy(rod);

@@ -38,7 +38,9 @@ typedef struct intestine {
   vsc_heightfield* heightfield;  // height fields (geom_count)
   int warned_passive_off; // the passive-off warning was given for this data
   int checked_start;      // the first step of this data looked for a start inside a geom
-  double frequency;       // highest angular frequency of the rod at its initial shape (rad/s, 0: not yet)
+  int has_frequencies;    // 1: the two below are computed
+  double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies
+  double contact_frequency;
   vsc_grasp grasps[VSC_MAX_GRASPERS];  // the holds of this step
   int grasp_owner[VSC_MAX_GRASPERS];   // which grasper each hold belongs to
 } intestine;
@@ -530,6 +532,20 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
               VSC_PUSH_OUT_SPEED);
 }
 
+// Substeps per step: the config's, or else the fewest the rod's stability
+// estimate allows at the model's timestep (which may change between steps).
+// The estimate is taken at the initial shape, from the model alone, so every
+// copy of a data chooses alike.
+static int step_substeps(const mjModel* m, intestine* it) {
+  if (!it->config.auto_substeps) return it->config.step.substeps;
+  if (!it->has_frequencies) {
+    vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
+    it->has_frequencies = 1;
+  }
+  return vsc_stable_substeps(it->config.step.integrator, it->elastic_frequency, it->contact_frequency,
+                             m->opt.timestep);
+}
+
 // Integrate the rod over one MuJoCo step against the geoms' poses at the step start.
 static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
@@ -571,9 +587,11 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   mjtNum* grasp_state = state + grasp_address(m, &it->config);
   world.grasps = it->grasps;
   world.grasp_count = update_grasps(m, d, it, state, grasp_state);
+  vsc_step_options step = it->config.step;
+  step.substeps = step_substeps(m, it);
   vsc_step_report report = {0, 0};
   vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, state + stick_address(m, n),
-                                   m->opt.timestep, &it->config.step, &report);
+                                   m->opt.timestep, &step, &report);
   // the step's average reaction per body, as force and torque about its centre of mass
   mjtNum* wrench = state + wrench_address(n);
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
@@ -598,7 +616,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     if (count == ldexp(1.0, ilogb(count)))
       mju_warning("viscera.intestine: state diverged at t = %g s and held at %d substeps instead of %d; "
                   "raise 'substeps' or use integrator 'implicit' (%g recoveries so far)", d->time,
-                  report.substeps, it->config.step.substeps, count);
+                  report.substeps, step.substeps, count);
   }
 }
 

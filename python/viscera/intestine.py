@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import difflib
+import re
 from typing import Any, Mapping
 
 import mujoco
@@ -217,12 +219,31 @@ def _format(value: Any) -> str:
     return " ".join(repr(float(x)) for x in array)
 
 
+def unknown_key_message(key: str) -> str:
+    """The message for a config key the plugin does not know, with the nearest known key."""
+    close = difflib.get_close_matches(key, attribute_names(), n=1, cutoff=0.6)
+    hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(attribute_names()))})"
+    return f"unknown config key '{key}' for plugin {PLUGIN_NAME}{hint}"
+
+
+# MuJoCo's compiler refuses an undeclared plugin attribute before the plugin sees
+# it, in its own words (with a stray quote): "unrecognized attribute
+# 'plugin:lenght' for plugin viscera.intestine'"
+_MUJOCO_UNKNOWN_KEY = re.compile(r"unrecognized attribute 'plugin:([^']*)' for plugin " + re.escape(PLUGIN_NAME) + "'?")
+
+
+def load_error_message(message: object) -> str:
+    """A model-loading error message with MuJoCo's wording for a misspelled intestine config
+    key replaced by unknown_key_message (naming the key, suggesting the nearest); any other
+    message comes back unchanged."""
+    return _MUJOCO_UNKNOWN_KEY.sub(lambda match: unknown_key_message(match.group(1)), str(message))
+
+
 def config_strings(**config: Any) -> dict[str, str]:
     """Config values as the strings MJCF carries; unknown keys raise ValueError."""
-    known = set(attribute_names())
-    unknown = sorted(set(config) - known)
+    unknown = sorted(set(config) - set(attribute_names()))
     if unknown:
-        raise ValueError(f"unknown viscera.intestine config key(s) {unknown}; known: {sorted(known)}")
+        raise ValueError("; ".join(unknown_key_message(key) for key in unknown))
     return {key: _format(value) for key, value in config.items()}
 
 

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "viscera/vsc_contact.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_layout.h"
 #include "vsc_test.h"
@@ -243,6 +244,86 @@ static void divergence_keeps_state_finite(void) {
   vsc_rod_destroy(rod);
 }
 
+// A straight rod whose axis lies on a plane (z = 0, half the tube inside it,
+// one radius deep) is pushed out, not read as diverging: the guard counts the
+// penalty springs' energy that the push-out turns into motion. It leaves at a
+// bounded speed (VSC_PUSH_OUT_SPEED), not at r sqrt(k / m_sphere) (4 m/s here).
+static void push_out_is_not_a_divergence(void) {
+  vsc_rod_def def = vsc_default_rod_def();
+  def.length = 1.0;
+  def.control_count = 60;
+  def.collision_sphere_count = 81;
+  def.stretch_stiffness = 40.0;  // the plugin's default material at 1 m
+  def.bend_stiffness = 4.0;
+  vsc_rod* rod = NULL;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
+  double q[180], v[180] = {0}, stick[8 * 81], start[3] = {0, 0, 0}, direction[3] = {1, 0, 0};
+  ENSURE(vsc_layout_line(60, 1.0, start, direction, q) == VSC_OK);
+  vsc_stick_clear(stick, 81);
+  vsc_geom plane = {0};
+  plane.type = VSC_GEOM_PLANE;
+  plane.rotation[0] = plane.rotation[4] = plane.rotation[8] = 1.0;
+  plane.is_static = 1;
+  vsc_world world = {{0, 0, 0}, &plane, 1};  // no gravity: the push alone
+  vsc_deepest_contact deepest;
+  double energy = vsc_rod_contact_energy(rod, &world, q, &deepest);
+  ENSURE_NEAR(deepest.depth, def.radius, 1e-12);
+  ENSURE_NEAR(energy, 81 * 0.5 * def.contact_stiffness * pow(VSC_SPRING_DEPTH * def.radius, 2) +
+                          81 * def.contact_stiffness * VSC_SPRING_DEPTH * def.radius * 0.5 * def.radius, 1e-9);
+  vsc_step_options options = vsc_default_step_options();
+  options.substeps = 2;
+  double fastest = 0.0;
+  for (int step = 0; step < 50; ++step) {  // 0.1 s of 2 ms steps
+    vsc_step_report report;
+    ENSURE(vsc_rod_step(rod, &world, q, v, stick, 0.002, &options, &report) == VSC_OK);
+    ENSURE(report.retries == 0);
+    for (int k = 0; k < 60; ++k) fastest = fmax(fastest, fabs(v[3 * k + 2]));
+  }
+  double lowest = INFINITY, mean_speed = 0.0;
+  for (int k = 0; k < 60; ++k) {
+    lowest = fmin(lowest, q[3 * k + 2]);
+    mean_speed += v[3 * k + 2] / 60.0;
+  }
+  printf("  pushed out: lowest point z = %.4f m, mean speed %.3f m/s, fastest %.3f m/s\n", lowest, mean_speed,
+         fastest);
+  ENSURE(lowest > def.radius);  // out of the plane
+  ENSURE(mean_speed > 0.5 * VSC_PUSH_OUT_SPEED && mean_speed < 1.1 * VSC_PUSH_OUT_SPEED);
+  ENSURE(fastest < 2.0 * VSC_PUSH_OUT_SPEED);
+  vsc_rod_destroy(rod);
+}
+
+// The stability estimate: at the substeps vsc_stable_substeps picks for a
+// 5 ms step the released rod holds (it gains no energy); at half as many it
+// blows up.
+static void stable_substeps_hold(void) {
+  double q0[750], v0[750], q[750], v[750];
+  vsc_rod* rod = released(q0, v0);
+  double elastic, contact;
+  vsc_rod_frequencies(rod, q0, &elastic, &contact);
+  printf("  omega: elastic %.0f rad/s, contact %.0f rad/s\n", elastic, contact);
+  ENSURE(elastic > 1800.0 && elastic < 2200.0);  // RK4's measured limit 1.45 ms = 2.83 / 1950 rad/s
+  int substeps = vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 0.005);
+  ENSURE(substeps == (int)ceil(0.005 * elastic / VSC_RK4_TRUSTED_OMEGA_H));
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 0.002) == 2);  // the shipped scenes
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, 0.005) > substeps);
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_IMPLICIT, elastic, contact, 0.005) < substeps);
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 1e-6) == 1);
+  vsc_world world = {{0, 0, 0}, NULL, 0};
+  int held[2];
+  int tries[2] = {substeps, substeps / 2};
+  for (int t = 0; t < 2; ++t) {
+    memcpy(q, q0, sizeof(q0)); memcpy(v, v0, sizeof(v0));
+    double e0 = total_energy(rod, q, v);
+    vsc_status status = VSC_OK;
+    for (int step = 0; step < 100 && status == VSC_OK; ++step)  // 0.5 s
+      status = bare_step(rod, &world, q, v, 0.005, VSC_INTEGRATOR_RK4, tries[t]);
+    held[t] = status == VSC_OK && total_energy(rod, q, v) < 1.01 * e0;  // near its limit RK4 only loses energy
+  }
+  printf("  %d substeps per 5 ms hold: %d; %d: %d\n", tries[0], held[0], tries[1], held[1]);
+  ENSURE(held[0] && !held[1]);
+  vsc_rod_destroy(rod);
+}
+
 int main(void) {
   RUN(energy_is_conserved);
   RUN(convergence_orders);
@@ -251,5 +332,7 @@ int main(void) {
   RUN(retry_recovers_with_more_substeps);
   RUN(energy_jump_is_caught);
   RUN(divergence_keeps_state_finite);
+  RUN(push_out_is_not_a_divergence);
+  RUN(stable_substeps_hold);
   TEST_MAIN_END();
 }

@@ -96,6 +96,26 @@ def test_python_builder_rejects_unknown_keys():
         viscera.extension_xml("gut", lenght=4)
 
 
+def test_misspelled_key_message_names_the_key_cleanly():
+    """MuJoCo refuses the key before the plugin sees it, in its own words and with a stray quote
+    ("unrecognized attribute 'plugin:lenght' for plugin viscera.intestine'"); load_error_message
+    turns that into one clean sentence, the Python builder's own, with the nearest key."""
+    import viscera
+    from viscera.intestine import load_error_message
+    xml = scene_xml().replace('<instance name="gut">', '<instance name="gut"><config key="lenght" value="4"/>')
+    with pytest.raises(ValueError) as error:
+        mujoco.MjModel.from_xml_string(xml)
+    clean = "unknown config key 'lenght' for plugin viscera.intestine (did you mean 'length'?)"
+    message = load_error_message(error.value)
+    assert clean in message and "plugin:" not in message and "intestine'" not in message, message
+    with pytest.raises(ValueError) as error:
+        viscera.extension_xml("gut", lenght=4)
+    assert str(error.value) == clean
+    assert load_error_message("Error: repeated name 'gut'") == "Error: repeated name 'gut'"
+    with pytest.raises(ValueError, match="unknown config key 'xyzzy' .*known keys: .*length"):
+        viscera.extension_xml("gut", xyzzy=1)
+
+
 def test_good_config_compiles_with_documented_defaults():
     import viscera
     model = mujoco.MjModel.from_xml_string(scene_xml())

@@ -52,7 +52,7 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
                             double mu, const double* elongation, double f[3], double tangent[3]) {
   double k = rod->def.contact_stiffness, c = rod->def.contact_damping;
   double approach = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
-  double spring = depth < rod->def.radius ? depth : rod->def.radius;  // see VSC_PUSH_OUT_SPEED
+  double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
   double normal = push_out_scale(approach) * k * spring - c * approach;
   if (!(normal > 0.0)) return 0.0;  // penalty contacts push, never pull
   double ft[3];
@@ -531,11 +531,11 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
   return p.contacts;
 }
 
-// Potential of a penalty spring at depth d > 0 (J): 1/2 k d^2, linear past one
-// radius, where its force stops growing.
+// Potential of a penalty spring at depth d > 0 (J): 1/2 k d^2, linear past
+// VSC_SPRING_DEPTH radii, where its force stops growing.
 static double spring_energy(const vsc_rod* rod, double depth) {
-  double k = rod->def.contact_stiffness, r = rod->def.radius;
-  return depth < r ? 0.5 * k * depth * depth : k * r * (depth - 0.5 * r);
+  double k = rod->def.contact_stiffness, cap = VSC_SPRING_DEPTH * rod->def.radius;
+  return depth < cap ? 0.5 * k * depth * depth : k * cap * (depth - 0.5 * cap);
 }
 
 // Penalty potential of one sphere-geom candidate (J), and the deepest rigid contact.

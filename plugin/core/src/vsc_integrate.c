@@ -264,3 +264,92 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
   clear_reactions(world);
   return VSC_ERROR_DIVERGED;
 }
+
+// y = K x for the frequency estimate: the band part of the elastic Jacobian in
+// rod->system, the global length term's rank-one part K_g g (g . x), and, with
+// `contact` > 0 (N/m), a penalty spring of that stiffness at every sphere in
+// every direction.
+static void stiffness_times(vsc_rod* rod, const double* gradient, double contact, const double* x, double* y) {
+  int size = 3 * rod->n;
+  vsc_band_wide_multiply(rod->system, size, rod->jacobian_half_width, x, y);
+  double gx = 0.0;
+  for (int i = 0; i < size; ++i) gx += gradient[i] * x[i];
+  for (int i = 0; i < size; ++i) y[i] += rod->def.global_stretch_stiffness * gx * gradient[i];
+  for (int s = 0; s < rod->def.collision_sphere_count && contact > 0.0; ++s) {
+    const vsc_basis* b = &rod->sphere_basis[s];
+    double p[3];
+    vsc_basis_point(b, x, p);
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
+      for (int c = 0; c < 3; ++c) y[3 * (b->first + j) + c] += contact * b->weight[j] * p[c];
+  }
+  for (int k = 0; k < rod->n; ++k)
+    if (rod->is_pinned[k]) y[3 * k] = y[3 * k + 1] = y[3 * k + 2] = 0.0;
+}
+
+// Power iteration on M^-1 K: the largest omega^2 (rad^2/s^2), from below.
+static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double contact) {
+  int size = 3 * rod->n;
+  double* x = rod->stage + 3 * size;  // the first three are the caller's gradient and scratch
+  double* y = x + size;
+  double* mx = y + size;
+  // start near the highest mode: neighbours in opposition, along every axis
+  for (int k = 0; k < rod->n; ++k)
+    for (int c = 0; c < 3; ++c)
+      x[3 * k + c] = (rod->is_pinned[k] ? 0.0 : 1.0) * ((k & 1) ? -1.0 : 1.0) * (1.0 + 0.37 * c + 0.01 * (k % 7));
+  double lambda = 0.0;
+  for (int iteration = 0; iteration < VSC_FREQUENCY_ITERATIONS; ++iteration) {
+    stiffness_times(rod, gradient, contact, x, y);
+    vsc_band_multiply3(rod->mass_band, rod->n, x, mx);
+    double xkx = 0.0, xmx = 0.0;
+    for (int i = 0; i < size; ++i) {
+      xkx += x[i] * y[i];
+      xmx += x[i] * mx[i];
+    }
+    if (!(xmx > 0.0)) return lambda;  // every point pinned
+    double previous = lambda;
+    lambda = xkx / xmx;  // Rayleigh quotient
+    vsc_band_solve3(rod->mass_factor, rod->n, y);
+    double norm = 0.0;
+    for (int k = 0; k < rod->n; ++k) {
+      if (rod->is_pinned[k]) y[3 * k] = y[3 * k + 1] = y[3 * k + 2] = 0.0;
+      for (int c = 0; c < 3; ++c) norm += y[3 * k + c] * y[3 * k + c];
+    }
+    if (!(norm > 0.0) || !isfinite(norm)) return lambda;  // no stiffness at all
+    norm = 1.0 / sqrt(norm);
+    for (int i = 0; i < size; ++i) x[i] = y[i] * norm;
+    if (iteration > 8 && fabs(lambda - previous) <= 1e-4 * lambda) break;
+  }
+  return lambda;
+}
+
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact) {
+  int size = 3 * rod->n;
+  vsc_world world = {{0, 0, 0}, NULL, 0};
+  double* gradient = rod->stage;
+  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
+  vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->system, gradient);
+  for (int k = 0; k < rod->n; ++k)
+    if (rod->is_pinned[k]) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
+  *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));
+  // contact alone: no elastic band, no global term
+  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
+  memset(gradient, 0, sizeof(double) * (size_t)size);
+  // a self-contact presses two spheres apart: twice the stiffness on their relative motion
+  *contact = sqrt(largest_eigenvalue(rod, gradient, rod->def.contact_stiffness) * (rod->def.self_collision ? 2.0 : 1.0));
+}
+
+int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double dt) {
+  // an undamped mode of frequency omega: RK4 holds for omega h < 2 sqrt(2) =
+  // 2.83 (we trust 2.7: abdomen.xml's 3 m, 250 points run at 1 ms substeps,
+  // 0.95 of their limit), symplectic Euler for omega h < 2 (we trust 1.8).
+  // Elastic modes are axial, contact modes mostly across the axis: the larger
+  // of the two frequencies sets the limit. The implicit step takes the elastic
+  // terms and the rigid contacts' normal springs implicitly, friction and
+  // self-contacts explicitly, as symplectic Euler would.
+  double omega = integrator == VSC_INTEGRATOR_IMPLICIT ? contact : (elastic > contact ? elastic : contact);
+  double trusted = integrator == VSC_INTEGRATOR_RK4 ? VSC_RK4_TRUSTED_OMEGA_H : VSC_EULER_TRUSTED_OMEGA_H;
+  double h = trusted / omega;  // largest substep we trust (s)
+  if (!(h > 0.0) || !(dt > 0.0)) return 1;
+  double substeps = ceil(dt / h * (1.0 - 1e-12));
+  return substeps < 1.0 ? 1 : (substeps > VSC_MAX_AUTO_SUBSTEPS ? VSC_MAX_AUTO_SUBSTEPS : (int)substeps);
+}

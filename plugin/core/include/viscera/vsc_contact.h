@@ -11,8 +11,10 @@
 // they were built.
 //
 // Spheres of radius def.radius sit uniformly in abscissa. A contact of depth
-// d > 0 and normal approach speed v_n pushes with f_n = max(0, k d - c v_n)
-// along its normal (k = contact_stiffness, c = contact_damping), applied at
+// d > 0 and normal separation speed v_n pushes with
+// f_n = max(0, s(v_n) k min(d, VSC_SPRING_DEPTH r) - c v_n) along its normal
+// (k = contact_stiffness, c = contact_damping; s = 1 below VSC_PUSH_OUT_SPEED / 2,
+// falling to 0 at VSC_PUSH_OUT_SPEED, see there), applied at
 // the sphere's abscissa through the spline basis (virtual work); the partner
 // (geom or sphere) receives the opposite force.
 //
@@ -53,11 +55,17 @@
 
 /// A penalty spring stops pushing a sphere out once it separates this fast
 /// (m/s; it pushes fully below half of it), and its push stops growing past a
-/// depth of one radius (k r, hundreds of times a sphere's weight): a sphere
-/// that starts deep in a geom leaves at about this speed, whatever its depth
-/// (1/2 k d^2 would throw it out at d sqrt(k / m)). Only rebounds faster than
-/// half of it lose energy.
+/// depth of VSC_SPRING_DEPTH radii: a sphere that starts deep in a geom leaves
+/// at about this speed whatever its depth, instead of being thrown out at
+/// d sqrt(k / m) with the spring's 1/2 k d^2. Only rebounds faster than half of
+/// it lose energy to this.
 #define VSC_PUSH_OUT_SPEED 1.0
+
+/// The penalty spring's push grows with depth up to this many radii, then stays
+/// (k r / 2 = 12.5 N per sphere at the defaults, 200 times its weight; a tube
+/// pressed deeper would be half crushed). A deeper start is pushed out no
+/// harder, so an explicit substep overshoots the push-out speed less.
+#define VSC_SPRING_DEPTH 0.5
 
 /// Candidate lists are built with this margin, as a multiple of the radius:
 /// they stay valid until a sphere or a geom moves by half of it.

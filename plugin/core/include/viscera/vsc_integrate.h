@@ -38,7 +38,7 @@ typedef struct vsc_step_options {
   int substeps;              ///< substeps per step (>= 1)
   int retries;               ///< on divergence, retry up to this many times, doubling the substeps (>= 0)
   double energy_jump_ratio;  ///< a step diverged if the rod's energy grows by more than this times
-                             ///< its kinetic + elastic energy at the step start ...
+                             ///< its kinetic + elastic (+ contact) energy at the step start ...
   double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
 } vsc_step_options;
 
@@ -61,8 +61,10 @@ typedef struct vsc_step_report {
 ///
 /// Divergence: a substep diverges when the state becomes non-finite or faster
 /// than VSC_DIVERGED_SPEED, or its factorisation fails; a step diverges when
-/// one of its substeps does or its energy (kinetic + elastic + gravity) jumps
-/// past the options' bound. A diverged step is retried from its start with
+/// one of its substeps does or its energy (kinetic + elastic + gravity +, when
+/// that alone jumps, the contact penalty's potential, vsc_rod_contact_energy)
+/// jumps past the options' bound: a rod pushed out of a geom turns the
+/// penalty's potential into motion, which is no divergence. A diverged step is retried from its start with
 /// twice the substeps, up to options->retries times and VSC_MAX_RETRY_SUBSTEPS
 /// substeps; VSC_OK is returned if an
 /// attempt held (report->retries > 0 then says it was recovered). If none
@@ -71,5 +73,34 @@ typedef struct vsc_step_report {
 /// state stays finite. `report` may be NULL.
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
                         const vsc_step_options* options, vsc_step_report* report);
+
+/// Power iterations of the frequency estimate (each O(n)); it stops earlier
+/// once the estimate changes by less than 1e-4.
+#define VSC_FREQUENCY_ITERATIONS 300
+
+/// Largest omega h (omega: a mode's angular frequency, h: the substep) that
+/// vsc_stable_substeps trusts: RK4's limit is 2 sqrt(2) = 2.83, symplectic
+/// Euler's 2 (95 % and 90 % of them; the estimate matches the measured limits
+/// within 4 %, docs/validation's stability map).
+#define VSC_RK4_TRUSTED_OMEGA_H 2.7
+#define VSC_EULER_TRUSTED_OMEGA_H 1.8
+
+/// vsc_stable_substeps never asks for more.
+#define VSC_MAX_AUTO_SUBSTEPS 1024
+
+/// Highest angular frequencies (rad/s) of the rod linearised at q (m): of its
+/// elastic forces (M^-1 K, pinned points held), and of its contact springs
+/// alone, every sphere pressed by a geom in every direction (a rod lying on a
+/// plane has exactly that across it), times sqrt(2) with self-collision (a
+/// pair presses two spheres). Power iteration, O(n) per iteration.
+/// Overwrites the rod's scratch (samples, stages, the implicit system).
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact);
+
+/// Fewest substeps of `integrator` for a step dt (s) with omega h within the
+/// trusted bound above, omega from the frequencies (rad/s) of
+/// vsc_rod_frequencies (explicit integrators: the larger; implicit: contact,
+/// whose friction and self-contacts it takes explicitly); 1 to
+/// VSC_MAX_AUTO_SUBSTEPS.
+int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double dt);
 
 #endif  // VISCERA_VSC_INTEGRATE_H
