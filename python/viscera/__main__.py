@@ -1,11 +1,14 @@
-"""Command line: ``python -m viscera run SCENE.xml --duration 5 [--png out.png]``."""
+"""Command line: python -m viscera run SCENE.xml [--duration 5] [--png out.png] [--viewer meshcat]."""
 
 from __future__ import annotations
 
 import argparse
+import inspect
 import os
+import socket
 import sys
 import time
+from collections.abc import Callable
 
 import viscera  # first: it picks a headless GL backend before mujoco loads
 
@@ -13,83 +16,149 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from viscera import cli  # noqa: E402
+from viscera.cli import UserError  # noqa: E402
 
-def _render_png(model: mujoco.MjModel, data: mujoco.MjData, path: str, camera: str | None) -> None:
+PROG = "python -m viscera"
+
+
+def camera_id(model: mujoco.MjModel, camera: str | None, scene: str) -> int | None:
+    """The id of the scene's camera named (or numbered) `camera`; None stays None (the default view)."""
+    if camera is None:
+        return None
+    found = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+    if found < 0 and camera.isdigit() and int(camera) < model.ncam:
+        found = int(camera)
+    if found < 0:
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or str(i) for i in range(model.ncam)]
+        have = f"its cameras: {', '.join(names)}" if names else "it has no cameras"
+        raise UserError(f"--camera {camera!r}: no such camera in {scene} ({have})", status=2)
+    return found
+
+
+def check_host(host: str) -> None:
+    """That the viewer can serve on `host` (an address of this machine): tried now, since the server's
+    own failure comes back as its traceback."""
+    try:
+        family, kind, _, _, address = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)[0]
+        with socket.socket(family, kind) as probe:
+            probe.bind(address)
+    except OSError as error:  # gaierror included: no such host name
+        raise UserError(f"--host {host!r}: cannot serve on it ({error.strerror or error})", status=2) from error
+
+
+def _renderer(model: mujoco.MjModel) -> mujoco.Renderer:
+    return mujoco.Renderer(model, min(600, int(model.vis.global_.offheight)), min(800, int(model.vis.global_.offwidth)),
+                           max_geom=20000)
+
+
+def _render_png(renderer: mujoco.Renderer, model: mujoco.MjModel, data: mujoco.MjData, path: str,
+                camera: int | None) -> None:
     import matplotlib.image
-    width = min(800, int(model.vis.global_.offwidth))
-    height = min(600, int(model.vis.global_.offheight))
-    with mujoco.Renderer(model, height, width, max_geom=20000) as renderer:
-        cam = camera if camera is not None else (0 if model.ncam > 0 else -1)
-        renderer.update_scene(data, camera=cam)
-        matplotlib.image.imsave(path, renderer.render())
+    renderer.update_scene(data, camera=camera if camera is not None else (0 if model.ncam > 0 else -1))
+    matplotlib.image.imsave(path, renderer.render())
 
 
-def run(scene: str, duration: float, png: str | None, camera: str | None, quiet: bool, viewer: str | None = None,
-        record: str | None = None, record_fps: float = 10.0, host: str = "127.0.0.1") -> dict:
+def _viewer(model: mujoco.MjModel, host: str, camera: int | None, hold: bool):
+    from viscera.viewer import MeshcatViewer
+    # the camera and hold() arrive with the framed viewer; say so rather than fail later
+    if hold and not hasattr(MeshcatViewer, "hold"):
+        raise UserError("--hold: this viewer cannot hold its final state yet", status=2)
+    if "camera" in inspect.signature(MeshcatViewer).parameters:
+        return MeshcatViewer(model, host=host, camera=camera)
+    return MeshcatViewer(model, host=host)
+
+
+def run(scene: str, duration: float, png: str | None = None, camera: str | None = None, quiet: bool = False,
+        viewer: str | None = None, record: str | None = None, record_fps: float = 10.0, host: str = "127.0.0.1",
+        hold: bool = False, report: Callable[[dict], None] | None = None) -> dict:
     """Simulate `scene` for `duration` s with a progress bar; return the summary figures.
 
-    With `viewer="meshcat"` the run is shown live (paced to real time, 30 frames per
-    simulated second) at a loopback URL; `record` writes a self-contained HTML
-    recording at `record_fps`.
+    Everything the user gave is checked before the first step (the scene loads, the camera
+    exists, the duration spans a step): a mistake raises cli.UserError, not a late traceback.
+    With `viewer="meshcat"` the run is shown live (paced to real time, 30 frames per simulated
+    second) at a loopback URL, framed by `camera`; `record` writes a self-contained HTML
+    recording at `record_fps`. `report` gets the summary while the viewer is still up; `hold`
+    then keeps serving the final state until Ctrl-C.
     """
-    model = mujoco.MjModel.from_xml_path(scene)
+    if hold and viewer != "meshcat":
+        raise UserError("--hold needs --viewer meshcat", status=2)
+    model = cli.load_model(scene)
+    camera_index = camera_id(model, camera, scene)
+    steps = int(round(duration / model.opt.timestep))
+    if steps < 1:
+        raise UserError(f"--duration {duration:g}: shorter than the scene's timestep ({model.opt.timestep:g} s)",
+                        status=2)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    steps = int(round(duration / model.opt.timestep))
-    view = None
-    if viewer == "meshcat" or record:
-        from viscera.viewer import MeshcatViewer
-        view = MeshcatViewer(model, host=host)
-        print(f"meshcat viewer: {view.url}", flush=True)
-    live = viewer == "meshcat"
-    display_every = max(1, int(round(1.0 / (30.0 * model.opt.timestep))))
-    record_every = max(1, int(round(1.0 / (record_fps * model.opt.timestep))))
-    chunk = max(1, steps // 200) if not live else display_every
-    wall_start = time.perf_counter()
-    stepping = 0.0
+    renderer = view = None
     try:
-        if view is not None:
-            view.update(data)
-        with tqdm(total=steps, unit="step", disable=quiet, desc=os.path.basename(scene)) as bar:
-            done = 0
-            while done < steps:
-                count = min(chunk, steps - done)
-                tick = time.perf_counter()
-                for _ in range(count):
-                    mujoco.mj_step(model, data)
-                    done += 1
-                    if record and done % record_every == 0:
-                        view.record(data)
-                stepping += time.perf_counter() - tick
-                bar.update(count)
-                if live:
-                    view.update(data)
-                    ahead = data.time - (time.perf_counter() - wall_start)
-                    if ahead > 0:
-                        time.sleep(ahead)  # pace the live view to real time
-        summary_extra = {}
+        renderer = _renderer(model) if png else None  # a missing GL shows now, not after the run
+        if viewer == "meshcat" or record:
+            check_host(host)
+            view = _viewer(model, host, camera_index, hold)
+            print(f"meshcat viewer: {view.url}", flush=True)
+        wall = _simulate(model, data, steps, view, live=viewer == "meshcat", record=bool(record),
+                         record_fps=record_fps, quiet=quiet, desc=os.path.basename(scene))
+        summary = {"scene": scene, "simulated_s": data.time, "wall_s": wall,
+                   "real_time_factor": data.time / wall if wall > 0 else float("inf"), "intestines": []}
+        for gut in viscera.intestines(model):
+            axis = gut.axis_points(data, 4000)
+            summary["intestines"].append({
+                "name": gut.name, "rest_length_m": gut.rest_length, "final_length_m": gut.length(data),
+                "lowest_point_m": float(axis[:, 2].min()), "max_speed_m_s": float(np.abs(gut.velocities(data)).max()),
+                "divergences": gut.divergence_count(data)})
+        if png:
+            _render_png(renderer, model, data, png, camera_index)
+            summary["png"] = png
         if record:
-            size = view.save(record, fps=record_fps)
-            summary_extra["recording"] = record
-            summary_extra["recording_bytes"] = size
-            summary_extra["recording_frames"] = len(view.frames)
+            summary["recording_bytes"] = view.save(record, fps=record_fps)
+            summary["recording"] = record
+            summary["recording_frames"] = len(view.frames)
+        if report is not None:
+            report(summary)
+        if hold:
+            print(f"serving the final state at {view.url}; Ctrl-C to stop", flush=True)
+            try:
+                view.hold()
+            except KeyboardInterrupt:  # the way a hold ends: not an interrupted run
+                pass
     finally:
         if view is not None:
             view.close()
-    wall = stepping
-    summary = {"scene": scene, "simulated_s": data.time, "wall_s": wall,
-               "real_time_factor": data.time / wall if wall > 0 else float("inf"), "intestines": []}
-    for gut in viscera.intestines(model):
-        axis = gut.axis_points(data, 4000)
-        summary["intestines"].append({
-            "name": gut.name, "rest_length_m": gut.rest_length, "final_length_m": gut.length(data),
-            "lowest_point_m": float(axis[:, 2].min()), "max_speed_m_s": float(np.abs(gut.velocities(data)).max()),
-            "divergences": gut.divergence_count(data)})
-    if png:
-        _render_png(model, data, png, camera)
-        summary["png"] = png
-    summary.update(summary_extra)
+        if renderer is not None:
+            renderer.close()
     return summary
+
+
+def _simulate(model: mujoco.MjModel, data: mujoco.MjData, steps: int, view, live: bool, record: bool,
+              record_fps: float, quiet: bool, desc: str) -> float:
+    """Step `steps` times, showing and recording on `view`; return the wall time spent stepping (s)."""
+    display_every = max(1, int(round(1.0 / (30.0 * model.opt.timestep))))
+    record_every = max(1, int(round(1.0 / (record_fps * model.opt.timestep))))
+    chunk = display_every if live else max(1, steps // 200)
+    wall_start = time.perf_counter()
+    stepping = 0.0
+    if view is not None:
+        view.update(data)
+    with tqdm(total=steps, unit="step", disable=quiet, desc=desc) as bar:
+        done = 0
+        while done < steps:
+            count = min(chunk, steps - done)
+            tick = time.perf_counter()
+            for _ in range(count):
+                mujoco.mj_step(model, data)
+                done += 1
+                if record and done % record_every == 0:
+                    view.record(data)
+            stepping += time.perf_counter() - tick
+            bar.update(count)
+            if live:
+                view.update(data)
+                ahead = data.time - (time.perf_counter() - wall_start)
+                if ahead > 0:
+                    time.sleep(ahead)  # pace the live view to real time
+    return stepping
 
 
 def _print_summary(s: dict) -> None:
@@ -105,28 +174,41 @@ def _print_summary(s: dict) -> None:
         print(f"picture          {s['png']}")
     if "recording" in s:
         print(f"recording        {s['recording']} ({s['recording_frames']} frames, {s['recording_bytes'] / 1e6:.1f} MB)")
+    sys.stdout.flush()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
+                                     "Run an MJCF scene with intestines and print a summary.")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run_parser = commands.add_parser("run", help="simulate an MJCF scene and print a summary",
+                                     description="Simulate an MJCF scene and print a summary. Every option is "
+                                     "checked before the first step.")
+    run_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/fall_on_plane.xml")
+    run_parser.add_argument("--duration", type=cli.positive_float, default=5.0, help="simulated seconds (default 5)")
+    run_parser.add_argument("--png", type=cli.output_file(".png"), help="render the final state to this PNG file")
+    run_parser.add_argument("--camera", help="the scene's camera (name or number) for --png and the viewer "
+                            "(default: the scene's first camera)")
+    run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    run_parser.add_argument("--viewer", choices=["meshcat"], help="show the run live in a browser (meshcat)")
+    run_parser.add_argument("--hold", action="store_true",
+                            help="after the run, keep the viewer serving the final state until Ctrl-C "
+                            "(needs --viewer meshcat)")
+    run_parser.add_argument("--record", type=cli.output_file(".html", ".htm"),
+                            help="write a self-contained HTML recording of the run to this file")
+    run_parser.add_argument("--record-fps", type=cli.positive_float, default=10.0,
+                            help="recorded frames per simulated second (default 10)")
+    run_parser.add_argument("--host", default="127.0.0.1", help="address the viewer serves on (default: loopback only)")
+    run_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera", description=__doc__)
-    commands = parser.add_subparsers(dest="command", required=True)
-    run_parser = commands.add_parser("run", help="simulate an MJCF scene and print a summary")
-    run_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/fall_on_plane.xml")
-    run_parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
-    run_parser.add_argument("--png", help="render the final state to this PNG file")
-    run_parser.add_argument("--camera", help="camera name for --png (default: the scene's first camera)")
-    run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    run_parser.add_argument("--viewer", choices=["meshcat"], help="show the run live in a browser (meshcat)")
-    run_parser.add_argument("--record", help="write a self-contained HTML recording of the run to this file")
-    run_parser.add_argument("--record-fps", type=float, default=10.0, help="recorded frames per simulated second")
-    run_parser.add_argument("--host", default="127.0.0.1", help="address the viewer serves on (default: loopback only)")
+    parser = build_parser()
     args = parser.parse_args(argv)
-    if args.duration <= 0:
-        parser.error(f"--duration must be positive, got {args.duration}")
-    if args.record_fps <= 0:
-        parser.error(f"--record-fps must be positive, got {args.record_fps}")
-    _print_summary(run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record,
-                       args.record_fps, args.host))
+    with cli.user_errors("viscera", args.verbose):
+        run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record, args.record_fps,
+            args.host, args.hold, report=_print_summary)
     return 0
 
 

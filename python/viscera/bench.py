@@ -28,6 +28,7 @@ import numpy as np
 from tqdm import tqdm
 
 import viscera
+from viscera import cli
 
 LENGTH = 4.0
 RADIUS = 0.0125
@@ -208,14 +209,15 @@ def plot_scaling(scaling: dict, path: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds per run (default 5)")
-    parser.add_argument("--runs", type=int, default=3, help="runs per peer, median reported (default 3)")
-    parser.add_argument("--json", help="also write the figures to this JSON file")
-    parser.add_argument("--plot", help="also draw the collision-pass scaling to this PNG")
+    parser.add_argument("--duration", type=cli.positive_float, default=5.0,
+                        help="simulated seconds per run (default 5)")
+    parser.add_argument("--runs", type=cli.positive_int, default=3, help="runs per peer, median reported (default 3)")
+    parser.add_argument("--json", type=cli.output_file(".json"), help="also write the figures to this JSON file")
+    parser.add_argument("--plot", type=cli.output_file(".png"), help="also draw the collision-pass scaling to this PNG")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    if args.runs < 1 or args.duration < 0.01:
-        parser.error("--runs must be >= 1 and --duration at least 0.01 s (several steps)")
+    if args.duration < 0.01:
+        parser.error(f"argument --duration: must be at least 0.01 s (several steps), got {args.duration:g}")
     result = run(args.duration, args.runs, args.quiet)
     print(f"{POINTS}-point, {LENGTH:g} m fall onto a plane, {args.duration:g} s simulated, median of {args.runs} runs")
     for name, peer in result["peers"].items():

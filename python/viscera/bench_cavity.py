@@ -37,6 +37,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from viscera import cli  # noqa: E402
 from viscera.tasks import clear_area  # noqa: E402
 
 
@@ -133,10 +134,12 @@ def report(results: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench_cavity", description=__doc__.split("\n")[0])
-    parser.add_argument("--runs", type=int, default=5, help="replays per variant, medians reported (default 5)")
-    parser.add_argument("--duration", type=float, default=20.0, help="gesture length (simulated s)")
-    parser.add_argument("--json", help="also write the figures to this JSON file")
-    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--runs", type=cli.positive_int, default=5,
+                        help="replays per variant, medians reported (default 5)")
+    parser.add_argument("--duration", type=cli.positive_float, default=20.0,
+                        help="gesture length (simulated s, default 20)")
+    parser.add_argument("--json", type=cli.output_file(".json"), help="also write the figures to this JSON file")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     results = run(args.runs, args.duration, args.quiet)
     print(report(results))

@@ -28,6 +28,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from viscera import cli  # noqa: E402
 from viscera.batch import BatchStepper  # noqa: E402
 from viscera.tasks import clear_area  # noqa: E402
 
@@ -104,12 +105,14 @@ def measure(batch: int = 8, steps: int = 250, runs: int = 5, thread_counts=(1, 2
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench_rollout", description=__doc__.split("\n")[0])
-    parser.add_argument("--batch", type=int, default=8, help="scenes per rollout (default 8)")
-    parser.add_argument("--steps", type=int, default=250, help="physics steps per scene (default 250: 0.5 s)")
-    parser.add_argument("--runs", type=int, default=5, help="repeats, medians reported (default 5)")
-    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
-    parser.add_argument("--json", help="also write the figures to this JSON file")
-    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--batch", type=cli.positive_int, default=8, help="scenes per rollout (default 8)")
+    parser.add_argument("--steps", type=cli.positive_int, default=250,
+                        help="physics steps per scene (default 250: 0.5 s)")
+    parser.add_argument("--runs", type=cli.positive_int, default=5, help="repeats, medians reported (default 5)")
+    parser.add_argument("--threads", type=cli.positive_int, nargs="+", default=[1, 2],
+                        help="thread counts (default 1 2)")
+    parser.add_argument("--json", type=cli.output_file(".json"), help="also write the figures to this JSON file")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     threads = sorted(set(args.threads) | {1})
     result = measure(args.batch, args.steps, args.runs, tuple(threads), progress=not args.quiet)

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from viscera import scale, vector
+from viscera import cli, scale, vector
 from viscera.batch import available_cores
 from viscera.bench_rollout import batch_inputs
 from viscera.tasks import clear_area
@@ -230,16 +230,20 @@ def plot(result: dict, path: str) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench_scale", description=__doc__.split("\n")[0])
-    parser.add_argument("--workers", type=int, nargs="+", default=None,
+    parser.add_argument("--workers", type=cli.positive_int, nargs="+", default=None,
                         help="worker counts (default: 1, 2, the cores and twice the cores)")
-    parser.add_argument("--envs-per-worker", type=int, default=2, help="environments each worker holds (default 2)")
-    parser.add_argument("--steps", type=int, default=100, help="control steps per collection (default 100: 2 s)")
-    parser.add_argument("--runs", type=int, default=5, help="timed collections per point, medians (default 5)")
+    parser.add_argument("--envs-per-worker", type=cli.positive_int, default=2,
+                        help="environments each worker holds (default 2)")
+    parser.add_argument("--steps", type=cli.positive_int, default=100,
+                        help="control steps per collection (default 100: 2 s)")
+    parser.add_argument("--runs", type=cli.positive_int, default=5,
+                        help="timed collections per point, medians (default 5)")
     parser.add_argument("--backends", nargs="+", default=["threads", "processes", "ray"],
-                        choices=["threads", "processes", "ray"])
-    parser.add_argument("--json", help="write the figures to this JSON file")
-    parser.add_argument("--png", help="draw steps/s and efficiency against workers to this PNG")
-    parser.add_argument("--quiet", action="store_true")
+                        choices=["threads", "processes", "ray"], help="backends to measure (default: all three)")
+    parser.add_argument("--json", type=cli.output_file(".json"), help="write the figures to this JSON file")
+    parser.add_argument("--png", type=cli.output_file(".png"),
+                        help="draw steps/s and efficiency against workers to this PNG")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     cores = available_cores()
     counts = sorted(set(args.workers or [1, 2, cores, 2 * cores]))

@@ -24,6 +24,7 @@ import dataclasses
 
 import numpy as np
 
+from viscera import cli
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
@@ -217,11 +218,15 @@ def _render(physics, path: str) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m viscera.gesture", description=__doc__.split("\n")[0])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--duration", type=float, default=20.0, help="episode length (simulated s)")
-    parser.add_argument("--png-before", help="picture of the cavity at the start (top camera)")
-    parser.add_argument("--png-after", help="picture of the cavity at the end")
-    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--seed", type=cli.natural_int, default=0,
+                        help="the task's seed (default 0; clear_area starts every episode from the same scene, "
+                        "so today the gesture is the same for every seed)")
+    parser.add_argument("--duration", type=cli.positive_float, default=20.0,
+                        help="episode length (simulated s, default 20)")
+    parser.add_argument("--png-before", type=cli.output_file(".png"),
+                        help="picture of the cavity at the start (top camera)")
+    parser.add_argument("--png-after", type=cli.output_file(".png"), help="picture of the cavity at the end")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     run(args.seed, args.duration, args.quiet, args.png_before, args.png_after)
 

@@ -73,6 +73,7 @@ run_peer returns {"value", "reference", "wall_s_per_sim_s", "timestep_s",
 
 from __future__ import annotations
 
+import argparse
 import functools
 import importlib.util
 import time
@@ -503,7 +504,7 @@ def run_peer(peer: str, case: str, segments: int) -> dict:
     if case not in CASES:
         raise ValueError(f"unknown case {case!r}; expected one of {tuple(CASES)}")
     if not available(peer):
-        return {"unsupported": f"{peer} is not installed (pip install pyelastica)"}
+        return {"unsupported": f'{peer} is not installed (pip install ".[peers]")'}
     try:
         timestep = _usable_step(peer, case, segments)
     except Unsupported as reason:
@@ -525,8 +526,17 @@ def run_peer(peer: str, case: str, segments: int) -> dict:
             "segments": segments}
 
 
-def main() -> None:
+def build_parser() -> argparse.ArgumentParser:
+    return argparse.ArgumentParser(
+        prog="python -m viscera.peers",
+        description="Run every peer rod simulator (MuJoCo's cable and flexcomp, PyElastica) on every validation "
+                    "case at its smallest resolution and print value, reference, error and cost. PyElastica is "
+                    'optional: pip install ".[peers]". The full charts: python -m viscera.validate.')
+
+
+def main(argv: list[str] | None = None) -> None:
     """Print every (peer, case) at the smallest resolution."""
+    build_parser().parse_args(argv)
     print(f"{'peer':16s} {'case':18s} {'n':>4s} {'value':>10s} {'reference':>10s} {'rel.err':>9s} "
           f"{'wall/sim':>9s} {'step s':>9s}")
     for case, resolutions in RESOLUTIONS.items():

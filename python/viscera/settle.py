@@ -1,6 +1,7 @@
 """Settle the intestine into the abdominal cavity and write its rest shape into the scene.
 
-    python -m viscera.settle [--scene assets/scenes/abdomen.xml] [--duration 6]
+    python -m viscera.settle --out settled.xml [--scene assets/scenes/abdomen.xml] [--duration 6]
+    python -m viscera.settle --out assets/scenes/abdomen.xml    # update the shipped scene
 
 The scene's intestine is laid out as two serpentines side by side: the first
 half rises from the duodenojejunal flexure (its pinned first point, on the
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 import re
+import sys
 
 import viscera  # first: headless GL backend
 
@@ -26,7 +28,10 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from viscera import cli  # noqa: E402
+
 SCENE = pathlib.Path("assets") / "scenes" / "abdomen.xml"  # run from the repository root
+DURATION = 6.0  # s: the shipped scene was settled with it (a rerun reproduces its points to the digit)
 HALF_WIDTH = (0.15, 0.125)  # the cavity's inner half sizes along x and y (m)
 LAYER_PITCH_RADII = 4.0     # rows and layers 4 radii apart: one tube diameter of clearance
 
@@ -110,15 +115,40 @@ def _with_shape(text: str, shape: str, points: np.ndarray | None, digits: int = 
     return text
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m viscera.settle", description=__doc__.split("\n")[0])
-    parser.add_argument("--scene", type=pathlib.Path, default=SCENE, help="scene to settle and rewrite")
-    parser.add_argument("--duration", type=float, default=6.0, help="settling time (simulated s)")
-    args = parser.parse_args(argv)
-    settled = settle(args.scene, args.duration)
-    args.scene.write_text(_with_shape(args.scene.read_text(), "control_points", settled, digits=6))
-    print(f"wrote {len(settled)} settled control points into {args.scene}")
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m viscera.settle",
+        description="Settle the intestine into the abdominal cavity and write the scene with its rest shape "
+                    "to --out (required: nothing is written without it).",
+        epilog=f"To update the shipped scene, name it: --out {SCENE}")
+    parser.add_argument("--out", type=cli.output_file(".xml"), required=True,
+                        help="where to write the scene with the settled shape (may be --scene itself)")
+    parser.add_argument("--scene", type=pathlib.Path, default=SCENE,
+                        help=f"scene to settle (default: {SCENE}, from the repository root)")
+    parser.add_argument("--duration", type=cli.positive_float, default=DURATION,
+                        help=f"settling time (simulated s, default {DURATION:g}: the shipped scene's)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    with cli.user_errors("viscera.settle", args.verbose):
+        cli.load_model(args.scene)  # the scene as given loads, before a long settle
+        text = args.scene.read_text()
+        try:
+            _with_shape(text, "line", None)
+        except ValueError as error:
+            raise cli.UserError(f"{args.scene}: {error}") from error
+        try:
+            settled = settle(args.scene, args.duration, args.quiet)
+        except RuntimeError as error:  # not at rest: settle's verdict on the user's --duration
+            raise cli.UserError(str(error)) from error
+        pathlib.Path(args.out).write_text(_with_shape(text, "control_points", settled, digits=6))
+    print(f"wrote {len(settled)} settled control points into {args.out}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

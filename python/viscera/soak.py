@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 import tqdm
 
-from viscera import tasks
+from viscera import cli, tasks
 
 WALLS = ("posterior_wall", "left_flank", "right_flank", "pelvis_floor", "cranial_wall", "anterior_wall")
 TIP_MARGIN = 0.01         # m: targets keep the tool tips this far inside the inner faces
@@ -192,9 +192,9 @@ def plot(result: dict, path: pathlib.Path) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--minutes", type=float, default=30.0, help="simulated minutes (default 30)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser = argparse.ArgumentParser(prog="python -m viscera.soak", description=__doc__.split("\n")[0])
+    parser.add_argument("--minutes", type=cli.positive_float, default=30.0, help="simulated minutes (default 30)")
+    parser.add_argument("--seed", type=cli.natural_int, default=0, help="seed of the random tool motion (default 0)")
     parser.add_argument("--out", type=pathlib.Path, default=OUT_DIR, help="where results.json and soak.png go")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)

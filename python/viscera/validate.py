@@ -676,8 +676,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.validate", description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="two resolutions per case, peers at one")
     parser.add_argument("--no-peers", action="store_true", help="our model only")
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs") / "validation")
-    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("docs") / "validation",
+                        help="folder for results.json and the charts (default docs/validation)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     results, peer_results = run(args.quick, args.quiet, peers=not args.no_peers)
     drift = energy_drift_order(args.quick)

@@ -1,0 +1,123 @@
+"""What the viscera command-line tools share: argument types, scene loading, and user errors.
+
+A user error (a bad option value, a scene MuJoCo refuses, a missing file) is one line on
+stderr and a non-zero status, with no traceback: a traceback is about our code, not the
+user's input. Anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import pathlib
+import sys
+import traceback
+from collections.abc import Callable, Iterator
+
+INTERRUPTED = 130  # the shell's status for a process ended by SIGINT
+
+
+class UserError(Exception):
+    """Something wrong in what the user gave; reported as one line with exit `status`
+    (2 for an option, as argparse does; 1 for an input such as a scene)."""
+
+    def __init__(self, message: str, status: int = 1):
+        super().__init__(message)
+        self.status = status
+
+
+def one_line(message: object) -> str:
+    """`message` (MuJoCo's compiler messages span lines) on one line."""
+    text = ""
+    for line in (line.strip() for line in str(message).splitlines()):
+        if line:
+            text += (" " if not text or text.endswith(":") else "; ") + line
+    return text.strip().removeprefix("Error: ")  # MuJoCo's prefix says nothing our "error:" does not
+
+
+@contextlib.contextmanager
+def user_errors(prog: str, verbose: bool = False) -> Iterator[None]:
+    """Report a UserError raised in the body as `prog: error: message` and exit with its status;
+    Ctrl-C exits with status 130 and one line. `verbose` prints the traceback first."""
+    try:
+        yield
+    except UserError as error:
+        if verbose:
+            traceback.print_exc()
+        print(f"{prog}: error: {error}", file=sys.stderr, flush=True)
+        raise SystemExit(error.status) from None
+    except KeyboardInterrupt:
+        if verbose:
+            traceback.print_exc()
+        print(f"\n{prog}: interrupted", file=sys.stderr, flush=True)  # newline: past a progress bar
+        raise SystemExit(INTERRUPTED) from None
+
+
+def load_model(path: str | os.PathLike, xml: str | None = None):
+    """The MuJoCo model of the scene file `path` (or of `xml`, text read from it); a missing
+    file or a scene MuJoCo refuses (e.g. a misspelled config key) is a UserError."""
+    import mujoco  # here: importing this module must not load MuJoCo before viscera picks a GL backend
+
+    if xml is None and not os.path.isfile(path):
+        raise UserError(f"{path}: no such scene file" if not os.path.exists(path) else f"{path}: not a file")
+    try:
+        return mujoco.MjModel.from_xml_path(str(path)) if xml is None else mujoco.MjModel.from_xml_string(xml)
+    except ValueError as error:  # MuJoCo's parser and compiler, the plugin's config checks
+        raise UserError(f"{path}: {one_line(error)}") from error
+
+
+def _number(kind: Callable[[str], float], text: str) -> float:
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not {'an integer' if kind is int else 'a number'}: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (nan, inf, 0 and negatives refused)."""
+    value = _number(float, text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    value = _number(int, text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+def natural_int(text: str) -> int:
+    """argparse type: an integer >= 0 (seeds)."""
+    value = _number(int, text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return value
+
+
+def output_file(*suffixes: str) -> Callable[[str], str]:
+    """argparse type: a file to write, ending in one of `suffixes`, in a folder that exists and
+    is writable; checked when the command line is read, not after a long run."""
+
+    def check(text: str) -> str:
+        path = pathlib.Path(text)
+        if path.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"{text!r} must end in {' or '.join(suffixes)}")
+        folder = path.parent
+        if not folder.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r}: folder {str(folder)!r} does not exist")
+        if path.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a folder")
+        if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise argparse.ArgumentTypeError(f"{text!r}: not writable")
+        return text
+
+    check.__name__ = f"{'/'.join(suffixes)} file"  # argparse names the type in some messages
+    return check

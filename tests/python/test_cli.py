@@ -1,0 +1,255 @@
+"""The command lines: a user's mistake is one clear line before any simulation; --help everywhere.
+
+Runs that must fail are given --duration 1000 (minutes of stepping) and a timeout far below
+that: a tool that simulated before checking its input times out instead of passing.
+"""
+
+import argparse
+import importlib
+import os
+import pathlib
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCENES = ROOT / "assets" / "scenes"
+PLANE = SCENES / "fall_on_plane.xml"
+QUICK = 60  # s: loading and checking takes about one; simulating --duration 1000 takes minutes
+TOOLS = ["", ".settle", ".peers", ".soak", ".validate", ".gesture", ".bench", ".bench_cavity", ".bench_rollout",
+         ".bench_scale", ".meshcat_server"]
+
+
+def viscera(*args, cwd=None, timeout=QUICK, module="viscera") -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", module, *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=timeout)
+
+
+def scene(tmp_path, old: str, new: str) -> pathlib.Path:
+    """fall_on_plane.xml with `old` replaced by `new`."""
+    text = PLANE.read_text()
+    assert old in text
+    path = tmp_path / "scene.xml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def assert_one_line(result, *names):
+    """Failed with exactly one stderr line, naming each of `names`, no traceback."""
+    assert result.returncode not in (0, None), result.stdout
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].strip(), result.stderr
+    for name in names:
+        assert str(name) in lines[0], (name, lines[0])
+    return lines[0]
+
+
+def assert_usage_error(result, usage, *names):
+    """argparse's usage error: status 2, the tool's usage, then one error line naming `names`."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    assert result.stderr.startswith(f"usage: {usage} "), result.stderr
+    error = result.stderr.strip().splitlines()[-1]
+    assert error.startswith(f"{usage}: error: "), result.stderr
+    for name in names:
+        assert str(name) in error, (name, error)
+
+
+# --- python -m viscera run: bad scenes (status 1, one line) ---
+
+@pytest.mark.parametrize("old, new, names", [
+    ('key="length"', 'key="lenght"', ["lenght", "plugin viscera.intestine"]),  # misspelled config key
+    ('key="radius" value="0.0125"', 'key="radius" value="-1"', ["radius", "-1"]),  # bad config value
+    ("</worldbody>", "", ["XML"]),  # malformed
+    ("<light ", "<lamp ", ["lamp"])], ids=["misspelled-key", "bad-value", "malformed", "unknown-element"])
+def test_run_reports_a_bad_scene_in_one_line(tmp_path, old, new, names):
+    path = scene(tmp_path, old, new)
+    line = assert_one_line(viscera("run", path, "--duration", 1000, "--quiet"), path, *names)
+    assert line.startswith(f"viscera: error: {path}: ")
+
+
+def test_run_reports_a_missing_scene(tmp_path):
+    missing = tmp_path / "nowhere.xml"
+    assert_one_line(viscera("run", missing, "--duration", 1000), missing, "no such scene file")
+
+
+# --- bad options: argparse's usage error (status 2) or one line once the scene is known ---
+
+@pytest.mark.parametrize("option, value, names", [
+    ("--duration", "nan", ["nan"]), ("--duration", "inf", ["inf"]), ("--duration", "-1", ["-1"]),
+    ("--duration", "0", ["0"]), ("--record-fps", "0", ["0"]), ("--record-fps", "nan", ["nan"]),
+    ("--png", "x.txt", ["x.txt", ".png"]), ("--record", "x.txt", ["x.txt", ".html"]),
+    ("--png", "{tmp}/no/such/folder/out.png", ["folder", "does not exist"]),
+    ("--record", "{tmp}/no/such/folder/run.html", ["folder", "does not exist"]),
+])
+def test_run_refuses_a_bad_option_with_runs_usage(tmp_path, option, value, names):
+    value = value.format(tmp=tmp_path)
+    duration = [] if option == "--duration" else ["--duration", 1000]
+    result = viscera("run", PLANE, option, value, *duration, "--quiet", cwd=tmp_path)
+    assert_usage_error(result, "python -m viscera run", option, *names)
+
+
+def test_run_lists_the_cameras_for_an_unknown_one(tmp_path):
+    result = viscera("run", SCENES / "abdomen.xml", "--camera", "endoscope", "--duration", 1000, "--quiet",
+                     "--png", tmp_path / "out.png")
+    assert_one_line(result, "--camera", "endoscope", "overview", "top")
+    assert result.returncode == 2 and not (tmp_path / "out.png").exists()
+
+
+def test_run_refuses_a_duration_below_one_step():
+    assert_one_line(viscera("run", PLANE, "--duration", 1e-4), "--duration", "0.0001", "timestep")
+
+
+def test_hold_needs_the_live_viewer():
+    assert_one_line(viscera("run", PLANE, "--duration", 1000, "--hold"), "--hold", "--viewer meshcat")
+
+
+def test_run_refuses_a_host_it_cannot_serve_on():
+    result = viscera("run", PLANE, "--duration", 1000, "--quiet", "--viewer", "meshcat",
+                     "--host", "no.such.host.invalid")
+    assert_one_line(result, "--host", "no.such.host.invalid")
+
+
+def test_verbose_prints_the_traceback_too(tmp_path):
+    path = scene(tmp_path, 'key="length"', 'key="lenght"')
+    result = viscera("run", path, "--duration", 1000, "--verbose")
+    assert result.returncode == 1
+    assert "Traceback" in result.stderr and "ValueError" in result.stderr
+    assert result.stderr.splitlines()[-1].startswith(f"viscera: error: {path}: ")
+
+
+def test_ctrl_c_ends_a_run_in_one_line():
+    process = subprocess.Popen([sys.executable, "-m", "viscera", "run", str(PLANE), "--duration", "1000"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    seen = b""
+    while b"step" not in seen:  # the progress bar: it is stepping
+        chunk = os.read(process.stderr.fileno(), 4096)
+        assert chunk, seen
+        seen += chunk
+    process.send_signal(signal.SIGINT)
+    rest = process.communicate(timeout=QUICK)[1]
+    stderr = (seen + rest).decode()
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    assert stderr.strip().splitlines()[-1] == "viscera: interrupted"
+
+
+def test_hold_serves_the_final_state_until_ctrl_c():
+    process = subprocess.Popen([sys.executable, "-m", "viscera", "run", str(PLANE), "--duration", "0.1", "--quiet",
+                                "--viewer", "meshcat", "--camera", "overview", "--hold"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        deadline = time.monotonic() + QUICK
+        while not any("Ctrl-C to stop" in line for line in lines):
+            line = process.stdout.readline()
+            assert line and time.monotonic() < deadline, (lines, process.stderr.read() if not line else "")
+            lines.append(line)
+        assert any(line.startswith("intestine 'intestine'") for line in lines)  # the summary came first
+        time.sleep(1.0)
+        assert process.poll() is None  # still serving
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=QUICK)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, stderr
+    assert "Traceback" not in stderr
+
+
+def test_a_good_run_still_works(tmp_path):
+    result = viscera("run", PLANE, "--duration", 0.1, "--quiet", "--camera", "0", "--png", tmp_path / "out.png")
+    assert result.returncode == 0, result.stderr
+    assert "simulated time   0.100 s" in result.stdout and (tmp_path / "out.png").stat().st_size > 1000
+
+
+# --- every tool ---
+
+@pytest.mark.parametrize("tool", TOOLS)
+def test_help_of_every_tool(tool):
+    result = viscera("--help", module="viscera" + tool, timeout=30)  # peers used to run its comparison
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(f"usage: python -m viscera{tool} "), result.stdout
+    if tool == "":
+        assert "``" not in result.stdout  # no RST markup
+
+
+class _Parsed(Exception):
+    pass
+
+
+@pytest.mark.parametrize("tool", TOOLS)
+def test_every_option_has_a_help_text(monkeypatch, tool):
+    """The parser each main() builds (caught at parse_args), subcommands included."""
+    parsers = []
+
+    def catch(self, *args, **kwargs):
+        parsers.append(self)
+        raise _Parsed
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", catch)
+    with pytest.raises(_Parsed):
+        importlib.import_module(f"viscera{tool or '.__main__'}").main([])
+    missing = []
+    while parsers:
+        parser = parsers.pop()
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                parsers += action.choices.values()
+            elif not action.help:
+                missing.append(f"{parser.prog} {'/'.join(action.option_strings) or action.dest}")
+    assert not missing
+
+
+@pytest.mark.parametrize("tool, args, names", [
+    (".soak", ["--minutes", "-1"], ["--minutes", "-1"]),
+    (".gesture", ["--duration", "nan"], ["--duration", "nan"]),
+    (".gesture", ["--png-after", "no/such/folder/a.png"], ["--png-after", "does not exist"]),
+    (".bench", ["--duration", "nan"], ["--duration", "nan"]),
+    (".settle", ["--out", "s.xml", "--duration", "inf"], ["--duration", "inf"]),
+])
+def test_other_tools_check_their_options_first(tmp_path, tool, args, names):
+    assert_usage_error(viscera(*args, module="viscera" + tool, cwd=tmp_path), f"python -m viscera{tool}", *names)
+
+
+# --- settle ---
+
+def _points(path: pathlib.Path) -> np.ndarray:
+    return np.array(re.search(r'<config key="points" value="([^"]*)"/>', path.read_text()).group(1).split(), float)
+
+
+def test_settle_writes_nothing_without_an_output_path(tmp_path):
+    shipped = tmp_path / "assets" / "scenes" / "abdomen.xml"  # where it used to write by default
+    shipped.parent.mkdir(parents=True)
+    shipped.write_text((SCENES / "abdomen.xml").read_text())
+    before = shipped.stat().st_mtime_ns
+    result = viscera(module="viscera.settle", cwd=tmp_path)
+    assert_usage_error(result, "python -m viscera.settle", "--out")
+    assert shipped.stat().st_mtime_ns == before
+
+
+def test_settle_reports_a_missing_scene(tmp_path):
+    result = viscera("--scene", tmp_path / "none.xml", "--out", tmp_path / "out.xml", module="viscera.settle")
+    assert_one_line(result, "viscera.settle: error:", "none.xml")
+    assert not (tmp_path / "out.xml").exists()
+
+
+def test_settle_defaults_reproduce_the_shipped_scene(tmp_path):
+    """The default settling time is the one the shipped abdomen was settled with."""
+    out = tmp_path / "settled.xml"
+    result = viscera("--out", out, "--quiet", module="viscera.settle", cwd=ROOT, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert np.abs(_points(out) - _points(SCENES / "abdomen.xml")).max() < 2e-6  # written to 1e-6 m
+
+
+# --- peers ---
+
+def test_peers_hint_names_the_projects_extra(monkeypatch):
+    from viscera import peers
+    monkeypatch.setattr(peers, "available", lambda peer: False)
+    assert 'pip install ".[peers]"' in peers.run_peer("pyelastica", "cantilever", 4)["unsupported"]
