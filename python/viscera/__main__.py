@@ -188,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--duration", type=cli.positive_float, default=5.0, help="simulated seconds (default 5)")
     run_parser.add_argument("--png", type=cli.output_file(".png"), help="render the final state to this PNG file")
     run_parser.add_argument("--camera", help="the scene's camera (name or number) for --png and the viewer "
-                            "(default: the scene's first camera)")
+                            "(default: the scene's first camera; without one, a view of the whole scene)")
     run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     run_parser.add_argument("--viewer", choices=["meshcat"], help="show the run live in a browser (meshcat)")
     run_parser.add_argument("--hold", action="store_true",

@@ -65,7 +65,8 @@ def load_model(path: str | os.PathLike, xml: str | None = None):
     try:
         return mujoco.MjModel.from_xml_path(str(path)) if xml is None else mujoco.MjModel.from_xml_string(xml)
     except ValueError as error:  # MuJoCo's parser and compiler, the plugin's config checks
-        raise UserError(f"{path}: {one_line(error)}") from error
+        from viscera.intestine import load_error_message  # MuJoCo's words for a misspelled key, cleaned
+        raise UserError(f"{path}: {one_line(load_error_message(error))}") from error
 
 
 def _number(kind: Callable[[str], float], text: str) -> float:
