@@ -17,20 +17,27 @@ and toggles visibility; `record_rings_per_segment` / `record_ring_points`
 
 from __future__ import annotations
 
+import base64
+import json
 import os
 import selectors
+import signal
 import subprocess
 import sys
+import threading
 import time
+import weakref
 
 import meshcat
 import meshcat.animation
 import meshcat.geometry as g
 import mujoco
 import numpy as np
+import umsgpack
 import zmq
 
 import viscera
+from viscera.meshcat_server import VIEWER_ROOT, Scene
 
 INTESTINE_RGB = (0.85, 0.45, 0.45)
 
@@ -42,7 +49,9 @@ def _colour(rgb) -> int:
 
 def _material(rgba) -> g.MeshLambertMaterial:
     alpha = float(rgba[3])
-    return g.MeshLambertMaterial(color=_colour(rgba), opacity=alpha, transparent=alpha < 1.0)
+    if alpha < 1.0:  # a see-through wall must not hide, in the depth buffer, what lies behind it
+        return g.MeshLambertMaterial(color=_colour(rgba), opacity=alpha, transparent=True, depthWrite=False)
+    return g.MeshLambertMaterial(color=_colour(rgba), opacity=alpha, transparent=False)
 
 
 def _revolved(profile_r: np.ndarray, profile_z: np.ndarray, segments: int = 24) -> g.TriangularMeshGeometry:
@@ -116,22 +125,221 @@ def geom_transform(data: mujoco.MjData, geom: int) -> np.ndarray:
     return transform
 
 
-class MeshcatViewer:
-    """A meshcat view of a MuJoCo model with intestines, served on `host` only."""
 
-    def __init__(self, model: mujoco.MjModel, host: str = "127.0.0.1", record_rings_per_segment: int = 1,
-                 record_ring_points: int = 8, timeout: float = 30.0):
+def _html(commands: dict[tuple[bytes, bytes, bytes], bytes]) -> str:
+    """A self-contained page that draws `commands` (a Scene's) with meshcat's bundled viewer.
+
+    Unlike meshcat's own page (one fetch() per command, resolved in any order and
+    after the page says it has loaded), the scene is drawn in order, at once; an
+    animation starts after the first frames are drawn, so that the time spent loading
+    its meshes does not eat into its start.
+    """
+    with open(os.path.join(VIEWER_ROOT, "main.min.js")) as f:
+        script = f.read()
+    later = "requestAnimationFrame(() => requestAnimationFrame(() => draw({})));\n"
+    draw = "".join((later if kind == b"set_animation" else "draw({});\n").format(f'"{base64.b64encode(data).decode()}"')
+                   for (kind, _, _), data in commands.items())
+    return ("<!DOCTYPE html>\n<html><head><meta charset=utf-8><title>MeshCat</title>"
+            "<style>body {margin: 0;} #meshcat-pane {width: 100vw; height: 100vh; overflow: hidden;}</style>"
+            f"</head><body><div id=\"meshcat-pane\"></div><script>{script}</script><script>\n"
+            "var viewer = new MeshCat.Viewer(document.getElementById(\"meshcat-pane\"));\n"
+            "function draw(b64) {\n"
+            "  const text = atob(b64), bytes = new Uint8Array(text.length);\n"
+            "  for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);\n"
+            "  viewer.handle_command_bytearray(bytes);\n"
+            f"}}\n{draw}</script></body></html>")
+
+
+class _Channel:
+    """meshcat's window (what `meshcat.Visualizer` sends through) over a one-way socket.
+
+    `send` never waits for the server: a command the socket cannot take now stays in
+    a backlog where a newer command for the same thing replaces it, and goes with the
+    next send. The whole scene is also kept here, so a page is written without the server.
+    """
+
+    def __init__(self, zmq_url: str, web_url: str):
+        self.web_url = web_url
+        self.scene = Scene(keep_deletes=False)
+        self.backlog = Scene(keep_deletes=True)
+        self.context = zmq.Context()
+        self.socket = self.context.socket(zmq.DEALER)
+        self.socket.setsockopt(zmq.SNDHWM, 64)  # a few frames in flight; beyond that, latest wins in the backlog
+        self.socket.setsockopt(zmq.LINGER, 0)
+        self.socket.connect(zmq_url)
+        self._token = 0
+
+    def send(self, command) -> None:
+        lowered = command.lower()
+        key = (lowered["type"].encode(), lowered["path"].encode(), lowered.get("property", "").encode())
+        data = umsgpack.packb(lowered)
+        self.scene.add(*key, data)
+        self.backlog.add(*key, data)
+        self.push()
+
+    def push(self) -> bool:
+        """Hand the backlog to the socket as far as it takes it now; True if all went."""
+        for key, data in list(self.backlog.commands.items()):
+            try:
+                self.socket.send_multipart([*key, data], flags=zmq.NOBLOCK)
+            except zmq.Again:
+                return False
+            del self.backlog.commands[key]
+        return True
+
+    def sync(self, timeout: float) -> dict | None:
+        """Wait up to `timeout` s until the server has every command sent so far; its status, or None."""
+        deadline = time.monotonic() + timeout
+        while not self.push():
+            left = deadline - time.monotonic()
+            if left <= 0 or not self.socket.poll(1000 * left, zmq.POLLOUT):
+                return None
+        self._token += 1
+        token = str(self._token).encode()
+        try:
+            self.socket.send_multipart([b"sync", token], flags=zmq.NOBLOCK)
+        except zmq.Again:
+            return None
+        while (left := deadline - time.monotonic()) > 0 and self.socket.poll(1000 * left, zmq.POLLIN):
+            _, answered, status = self.socket.recv_multipart()
+            if answered == token:  # older answers belong to syncs that timed out
+                return json.loads(status)
+        return None
+
+    def get_scene(self) -> str:
+        return _html(self.scene.commands)
+
+    def close(self) -> None:
+        self.socket.close(linger=0)
+        self.context.term()
+
+
+def _stop_server(server: subprocess.Popen, channel: _Channel | None) -> None:
+    """Stop the server and release the pipes and sockets (run by weakref.finalize: also at exit)."""
+    if channel is not None:
+        channel.close()
+    if server.stdin and not server.stdin.closed:
+        server.stdin.close()  # end of file: the server's own watchdog stops it
+    if server.poll() is None:
+        server.terminate()
+        try:
+            server.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait()
+    for pipe in (server.stdout, server.stderr):
+        if pipe and not pipe.closed:
+            pipe.close()
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM ends hold() as Ctrl-C does
+
+
+def _visible(model: mujoco.MjModel, geom: int) -> bool:
+    return model.geom_group[geom] < 3 and model.geom_rgba[geom][3] > 0
+
+
+def camera_id(model: mujoco.MjModel, camera: int | str) -> int:
+    """The id of a camera given by name or id; ValueError naming the cameras there are."""
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or f"#{i}" for i in range(model.ncam)]
+    listing = f"its cameras: {', '.join(names)}" if names else "it has no cameras"
+    if isinstance(camera, str):
+        index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+        if index < 0:
+            raise ValueError(f"no camera named {camera!r} in the scene; {listing}")
+        return index
+    if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) and 0 <= camera < model.ncam:
+        return int(camera)
+    raise ValueError(f"no camera {camera!r} in the scene; {listing}")
+
+
+def scene_bounds(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, float]:
+    """Centre and radius of the visible geoms (planes aside: they are unbounded) and the intestines."""
+    points = []
+    for geom in range(model.ngeom):
+        if not _visible(model, geom) or model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_PLANE:
+            continue
+        offset, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+        corners = offset + half * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        points.append(data.geom_xpos[geom] + corners @ data.geom_xmat[geom].reshape(3, 3).T)
+    for gut in viscera.intestines(model):
+        points.append(gut.positions(data))
+    if not points:
+        return np.zeros(3), 1.0
+    points = np.concatenate(points)
+    low, high = points.min(axis=0), points.max(axis=0)
+    return (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 1e-3)
+
+
+def camera_view(model: mujoco.MjModel, camera: int | str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Eye, target and vertical field of view (degrees) that frame the model in its initial state.
+
+    `camera` is a MuJoCo camera name or id; None: the model's first camera, or if it has
+    none, a view from MuJoCo's default azimuth and elevation that fits the bounds of the
+    visible geoms and the intestines. The target is on the camera's axis at the depth of
+    the scene's centre: meshcat orbits about it.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_camlight(model, data)
+    centre, radius = scene_bounds(model, data)
+    if camera is None and model.ncam > 0:
+        camera = 0
+    if camera is None:
+        fovy = float(model.vis.global_.fovy)
+        azimuth, elevation = np.radians([model.vis.global_.azimuth, model.vis.global_.elevation])
+        forward = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
+                            np.sin(elevation)])
+        distance = 1.1 * radius / np.sin(np.radians(fovy) / 2)
+        return centre - distance * forward, centre, fovy
+    index = camera_id(model, camera)
+    eye = data.cam_xpos[index].copy()
+    forward = -data.cam_xmat[index].reshape(3, 3)[:, 2]
+    depth = max(float(np.dot(centre - eye, forward)), 0.1 * radius)
+    return eye, eye + depth * forward, float(model.cam_fovy[index])
+
+
+class MeshcatViewer:
+    """A meshcat view of a MuJoCo model with intestines, served on `host` only.
+
+    The page opens framed on the scene: from `camera` (a MuJoCo camera name or id;
+    default: the model's first camera, or a view that fits the scene), with that
+    camera's field of view; meshcat's grid and axes are hidden (planes are drawn as
+    geoms), MuJoCo's transparency is kept. A recorded page (`save`) opens the same.
+
+    Browsers may come and go at any time. Nothing waits for them: `update` hands the
+    state to the server process (`python -m viscera.meshcat_server`) and returns; a slow
+    browser is sent the latest state when it is ready for more, skipping frames.
+
+    The server ends with the viewer: `close()`, the end of a `with` block, garbage
+    collection, interpreter exit, or the end of this process by any signal, SIGKILL too.
+
+    `hold()` keeps the page up after a run, showing the last state, until Ctrl-C or
+    SIGTERM.
+    """
+
+    def __init__(self, model: mujoco.MjModel, host: str = "127.0.0.1", camera: int | str | None = None,
+                 record_rings_per_segment: int = 1, record_ring_points: int = 8, timeout: float = 30.0):
         self.model = model
         self.vis = None
-        self._server = subprocess.Popen([sys.executable, "-m", "viscera.meshcat_server", "--host", host],
-                                        stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        eye, target, fovy = camera_view(model, camera)  # a bad camera fails before a server starts
+        # a session of its own: Ctrl-C in the terminal goes to this process, which decides
+        self._server = subprocess.Popen(
+            [sys.executable, "-m", "viscera.meshcat_server", "--host", host, "--parent", str(os.getpid())],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+        self._channel = None
+        self._finalizer = weakref.finalize(self, _stop_server, self._server, None)
         try:
             zmq_url, self.url = self._read_urls(timeout)
-            self.vis = meshcat.Visualizer(zmq_url=zmq_url)
-            # a dead server must raise, not hang: meshcat's request socket waits forever by default
-            self.vis.window.zmq_socket.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
-            self.vis.window.zmq_socket.setsockopt(zmq.LINGER, 0)
+            for pipe in (self._server.stdout, self._server.stderr):
+                pipe.close()  # the server prints nothing more
+            self._channel = _Channel(zmq_url, self.url)
+            self._finalizer.detach()
+            self._finalizer = weakref.finalize(self, _stop_server, self._server, self._channel)
+            self.vis = meshcat.Visualizer(window=self._channel)
             self._build(record_rings_per_segment, record_ring_points)
+            self._frame(eye, target, fovy)
         except BaseException:
             self.close()
             raise
@@ -168,8 +376,7 @@ class MeshcatViewer:
         self.frames: list[tuple[dict, dict]] = []
         self.geoms = []
         for geom in range(model.ngeom):
-            visible = model.geom_group[geom] < 3 and model.geom_rgba[geom][3] > 0
-            shape = geom_geometry(model, geom) if visible else None
+            shape = geom_geometry(model, geom) if _visible(model, geom) else None
             if shape is None:
                 continue
             # MuJoCo's rule: a material's colour applies unless the geom sets its own rgba
@@ -178,14 +385,41 @@ class MeshcatViewer:
                 rgba = model.mat_rgba[material]
             self.vis["geoms"][str(geom)].set_object(shape, _material(rgba))
             self.geoms.append(geom)
-        self._moving = [geom for geom in self.geoms if model.body_weldid[model.geom_bodyid[geom]] != 0]
+        bodies = model.geom_bodyid[self.geoms]
+        moving = (model.body_weldid[bodies] != 0) | (model.body_mocapid[model.body_rootid[bodies]] >= 0)
+        self._moving = [geom for geom, moves in zip(self.geoms, moving) if moves]
+        self._placed = False
         self._skin_material = _material((*INTESTINE_RGB, 1.0))
-        self.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.0, 0.8, 1.0])
+        for helper in ("/Axes", "/Grid"):  # drawn through the scene; planes are drawn as geoms
+            self.vis[helper].set_property("visible", False)
+
+    def _frame(self, eye: np.ndarray, target: np.ndarray, fovy: float) -> None:
+        """Point meshcat's camera from `eye` at `target`, vertical field of view `fovy` degrees.
+
+        meshcat's orbit controls always look at the origin of three.js's world, so the
+        scene (everything under /meshcat) is shifted to put `target` there; the camera's
+        position is in three.js's y-up frame: (x, y, z) -> (x, z, -y).
+        """
+        offset = np.asarray(eye, float) - target
+        distance = float(np.linalg.norm(offset))
+        if abs(offset[2]) > 0.999 * distance:
+            # looking along the orbit's up axis leaves the picture's up undefined:
+            # tilt a hair towards -y so that +y is up, as in MuJoCo's top views
+            offset[1] -= 1e-3 * distance
+        shift = np.eye(4)
+        shift[:3, 3] = -np.asarray(target, float)
+        self.vis.set_transform(shift)
+        camera = self.vis["/Cameras/default/rotated/<object>"]
+        camera.set_property("position", [float(offset[0]), float(offset[2]), float(-offset[1])])
+        camera.set_property("fov", float(fovy))
+        camera.set_property("near", distance / 100)
+        camera.set_property("far", distance * 100)
 
     def update(self, data: mujoco.MjData) -> None:
-        """Show the state of `data`: geom poses and every intestine's skin."""
-        for geom in self.geoms:
+        """Show the state of `data`: geom poses and every intestine's skin. Never waits for a browser."""
+        for geom in self._moving if self._placed else self.geoms:  # the others never move
             self.vis["geoms"][str(geom)].set_transform(geom_transform(data, geom))
+        self._placed = True
         for gut in self.intestines:
             vertices, _, triangles = viscera.skin(self.model, data, gut.instance)
             self.vis["intestines"][gut.name].set_object(g.TriangularMeshGeometry(vertices, triangles),
@@ -211,19 +445,24 @@ class MeshcatViewer:
         home, away = np.eye(4), np.eye(4)
         away[2, 3] = -1000.0
         for k, (skins, poses) in enumerate(self.frames):
-            # each object's clip loops on its own length: every track starts parked at
-            # frame 0 and ends at the same last frame, so the clips loop together;
-            # recorded frame k shows on animation frame k + 1
-            keys = [(0, away), (k + 0.999, away), (k + 1, home), (k + 1.999, home), (k + 2, away), (count + 1, away)]
+            # each object's clip loops on its own length: every track spans frames 0 to
+            # `count`, so the clips loop together; recorded frame k shows on [k, k + 1),
+            # the first one also before the animation starts
+            shown = {0: k == 0, k: True, k + 0.999: True, count: k == count - 1}
+            if k > 0:
+                shown[k - 0.001] = False
+            if k + 1 < count:
+                shown[k + 1] = False
+            keys = [(time_in_frames, home if on else away) for time_in_frames, on in sorted(shown.items())]
             for name, (vertices, triangles) in skins.items():
                 node = self.vis["recording"][name][str(k)]
                 # a material object per frame: meshcat's page loads objects sharing one badly
                 node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material((*INTESTINE_RGB, 1.0)))
-                node.set_transform(away)
+                node.set_transform(home if k == 0 else away)
                 for time_in_frames, transform in keys:
                     with animation.at_frame(self.vis, time_in_frames) as frame:
                         frame["recording"][name][str(k)].set_transform(transform)
-            with animation.at_frame(self.vis, k + 1) as frame:
+            with animation.at_frame(self.vis, k) as frame:
                 for geom, transform in poses.items():
                     frame["geoms"][str(geom)].set_transform(transform)
         self.vis["intestines"].delete()  # the recording replaces the live skin
@@ -233,21 +472,36 @@ class MeshcatViewer:
             f.write(html)
         return len(html.encode())
 
+    def flush(self, timeout: float = 5.0) -> dict | None:
+        """Wait up to `timeout` s until the server has everything sent so far.
+
+        Returns the server's status (`browsers` connected now, `connections` since it
+        started, `commands` received), or None if it did not answer in time. Never
+        raises; updates do not need it: it is for scripts and tests that must know.
+        """
+        return self._channel.sync(timeout) if self._channel is not None else None
+
+    def hold(self, timeout: float | None = None) -> None:
+        """Keep serving the last state until Ctrl-C or SIGTERM (or `timeout` s), then return.
+
+        For a look at the final state after a run; `close()` after it (or use `with`).
+        """
+        self.flush()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGTERM, _interrupt)
+        try:
+            self._server.wait(timeout)
+        except (KeyboardInterrupt, subprocess.TimeoutExpired):
+            pass
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGTERM, previous)
+
     def close(self) -> None:
         """Stop the server and release its pipes and sockets (idempotent)."""
-        if self.vis is not None:
-            self.vis.window.zmq_socket.close(linger=0)
-            self.vis = None
-        if self._server.poll() is None:
-            self._server.terminate()
-            try:
-                self._server.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self._server.kill()
-                self._server.wait()
-        for pipe in (self._server.stdout, self._server.stderr):
-            if pipe and not pipe.closed:
-                pipe.close()
+        self.vis = None
+        self._finalizer()
 
     def __enter__(self):
         return self

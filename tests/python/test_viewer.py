@@ -1,10 +1,17 @@
 """The skin and the meshcat viewer, as a person would see them: in headless Chromium."""
 
+import base64
+import os
 import pathlib
+import re
 import shutil
+import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import time
+import urllib.request
 
 import matplotlib.image
 import mujoco
@@ -16,6 +23,7 @@ from viscera.viewer import MeshcatViewer
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENE = ROOT / "assets" / "scenes" / "fall_on_plane.xml"
+ABDOMEN = ROOT / "assets" / "scenes" / "abdomen.xml"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (.ci/run installs it)")
 
@@ -149,17 +157,216 @@ def test_capsule_mesh_is_a_tube_with_round_ends():
     assert radial[middle].max() == pytest.approx(0.01) and middle.sum() >= 2 * 24
 
 
+def servers_running(owner: int | None = None) -> list[str]:
+    """Pids of live viscera.meshcat_server processes started by viewers in process `owner`
+    (default: this one), from /proc (no pgrep needed). Others' servers are not ours to judge."""
+    running = []
+    mark = b"viscera.meshcat_server\0--host\0"
+    parent = b"\0--parent\0%d\0" % (os.getpid() if owner is None else owner)
+    for entry in pathlib.Path("/proc").iterdir():
+        try:
+            command = (entry / "cmdline").read_bytes() if entry.name.isdigit() else b""
+            if mark in command and parent in command:
+                if "State:\tZ" not in (entry / "status").read_text():
+                    running.append(entry.name)
+        except OSError:
+            continue
+    return running
+
+
+def poll(condition, timeout: float = 20.0):
+    """The first truthy value of `condition()` within `timeout` s, else its last value."""
+    deadline = time.monotonic() + timeout
+    while not (value := condition()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return value
+
+
 def test_viewer_that_cannot_start_raises_and_leaves_no_server():
     model = mujoco.MjModel.from_xml_string("<mujoco/>")
     with pytest.raises(RuntimeError, match="meshcat server"):
         MeshcatViewer(model, host="300.1.1.1")  # not an address
-    running = []
-    for entry in pathlib.Path("/proc").iterdir():  # no pgrep needed
-        try:
-            if entry.name.isdigit() and b"viscera.meshcat_server" in (entry / "cmdline").read_bytes():
-                status = (entry / "status").read_text()
-                if "State:\tZ" not in status:
-                    running.append(entry.name)
-        except OSError:
-            continue
-    assert running == []
+    assert servers_running() == []
+
+
+def test_unknown_camera_is_refused_at_construction_naming_the_cameras():
+    model = mujoco.MjModel.from_xml_path(str(ABDOMEN))
+    with pytest.raises(ValueError, match=r"'topp'.*overview, top"):
+        MeshcatViewer(model, camera="topp")
+    with pytest.raises(ValueError, match="no cameras"):
+        MeshcatViewer(mujoco.MjModel.from_xml_string("<mujoco/>"), camera=0)
+    assert servers_running() == []
+
+
+OWNER = """
+import os, signal, sys, mujoco
+from viscera.viewer import MeshcatViewer
+viewer = MeshcatViewer(mujoco.MjModel.from_xml_path(sys.argv[1]))
+print(viewer.url, viewer._server.pid, os.getpid(), flush=True)
+how = sys.argv[2]
+if how == "raise":
+    raise RuntimeError("the user's script fails")
+if how in ("SIGTERM", "SIGKILL"):
+    os.kill(os.getpid(), getattr(signal, how))
+"""
+
+
+@pytest.mark.parametrize("how", ["exit", "raise", "SIGTERM", "SIGKILL"])
+def test_server_ends_with_its_owner(how):
+    """A viewer never closed: its server goes when the owning process ends, however it ends."""
+    owner = subprocess.run([sys.executable, "-c", OWNER, str(SCENE), how], capture_output=True, text=True, timeout=120)
+    assert owner.returncode == {"exit": 0, "raise": 1, "SIGTERM": -15, "SIGKILL": -9}[how], owner.stderr
+    url, pid, owner_pid = owner.stdout.split()
+    assert poll(lambda: servers_running(int(owner_pid)) == []), f"server {pid} outlived its owner ({how})"
+    assert poll(lambda: not listening_addresses(web_port(url))), "the web port is still taken"
+
+
+HOLDER = """
+import sys, mujoco
+from viscera.viewer import MeshcatViewer
+model = mujoco.MjModel.from_xml_path(sys.argv[1])
+data = mujoco.MjData(model)
+mujoco.mj_step(model, data)
+with MeshcatViewer(model) as viewer:
+    viewer.update(data)
+    print(viewer.url, flush=True)
+    viewer.hold()
+    print("held", flush=True)
+"""
+
+
+def test_hold_serves_until_sigterm():
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(SCENE)], stdout=subprocess.PIPE, text=True)
+    try:
+        url = holder.stdout.readline().strip()
+        # holding: SIGTERM is caught (bit 15 of SigCgt), not the default action
+        assert poll(lambda: int(re.search(r"SigCgt:\s*(\w+)", pathlib.Path(f"/proc/{holder.pid}/status").read_text())
+                                .group(1), 16) & (1 << (signal.SIGTERM - 1)))
+        page = urllib.request.urlopen(url, timeout=10).read()  # still served after the run
+        assert b"MeshCat" in page and holder.poll() is None
+        holder.send_signal(signal.SIGTERM)
+        assert holder.wait(timeout=30) == 0
+        assert holder.stdout.read().strip() == "held"
+    finally:
+        holder.kill()
+        holder.stdout.close()
+    assert poll(lambda: servers_running(holder.pid) == [])
+
+
+LIVE_RUN = """
+import select, sys, time, mujoco
+from viscera.viewer import MeshcatViewer
+model = mujoco.MjModel.from_xml_path(sys.argv[1])
+data = mujoco.MjData(model)
+with MeshcatViewer(model, camera="top") as viewer:
+    print(viewer.url, flush=True)
+    slowest = 0.0
+    while not select.select([sys.stdin], [], [], 0)[0]:  # until the test says stop
+        for _ in range(16):
+            mujoco.mj_step(model, data)
+        tick = time.perf_counter()
+        viewer.update(data)
+        slowest = max(slowest, time.perf_counter() - tick)
+    status = viewer.flush()
+    print(data.time, slowest, status["connections"], status["browsers"], flush=True)
+"""
+
+
+def stalled_browser(url: str) -> socket.socket:
+    """A websocket client that connects and then never reads: the slowest browser there is."""
+    port = web_port(url)
+    client = socket.create_connection(("127.0.0.1", port))
+    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    key = base64.b64encode(os.urandom(16)).decode()
+    client.sendall(f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                   f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
+    return client
+
+
+@needs_chromium
+def test_browsers_come_and_go_while_the_simulation_runs(tmp_path):
+    """Chromium connects, leaves, connects again, a stalled client never reads: the run
+    never waits for any of them and ends normally; each Chromium saw the bowel."""
+    run = subprocess.Popen([sys.executable, "-c", LIVE_RUN, str(ABDOMEN)], stdin=subprocess.PIPE,
+                           stdout=subprocess.PIPE, text=True)
+    try:
+        url = run.stdout.readline().strip()
+        stalled = stalled_browser(url)
+        seen = [intestine_pixels(screenshot(url, tmp_path / f"visit{k}.png")).sum() for k in range(2)]
+        stalled.close()
+        run.stdin.write("stop\n")
+        run.stdin.flush()
+        assert run.wait(timeout=60) == 0
+        simulated, slowest, connections, browsers = run.stdout.read().split()
+    finally:
+        run.kill()
+        run.stdout.close()
+    assert min(seen) > 0.15 * 800 * 600, seen
+    assert float(simulated) > 0.5  # it kept going meanwhile
+    assert float(slowest) < 0.25  # one update never waited for a browser
+    assert int(connections) == 3 and int(browsers) == 0
+
+
+def framed_pixels(image: np.ndarray) -> tuple[float, float, float]:
+    """The intestine's share of the frame and its centre as fractions of width and height."""
+    mask = intestine_pixels(image)
+    rows, cols = np.nonzero(mask)
+    return mask.mean(), cols.mean() / mask.shape[1], rows.mean() / mask.shape[0]
+
+
+MUJOCO_TOP_VIEW = """
+import sys
+import viscera  # first: it picks EGL when there is no display, before mujoco loads
+import matplotlib.image, mujoco
+model = mujoco.MjModel.from_xml_path(sys.argv[1])
+data = mujoco.MjData(model)
+while data.time < float(sys.argv[3]):
+    mujoco.mj_step(model, data)
+with mujoco.Renderer(model, 600, 800) as renderer:
+    renderer.update_scene(data, camera="top")
+    matplotlib.image.imsave(sys.argv[2], renderer.render())
+"""
+
+
+def mujoco_top_view(path: pathlib.Path, seconds: float) -> np.ndarray:
+    """MuJoCo's own picture of the abdomen from its `top` camera (in a process of its own:
+    the GL backend is chosen when mujoco is first imported)."""
+    subprocess.run([sys.executable, "-c", MUJOCO_TOP_VIEW, str(ABDOMEN), str(path), str(seconds)], check=True,
+                   timeout=120)
+    return matplotlib.image.imread(path)[..., :3]
+
+
+def abdomen_views(live_png: pathlib.Path, recorded_png: pathlib.Path) -> tuple:
+    """Screenshots of the abdomen after 0.2 s, live and recorded, from its `top` camera; and MuJoCo's own."""
+    model = mujoco.MjModel.from_xml_path(str(ABDOMEN))
+    data = mujoco.MjData(model)
+    with MeshcatViewer(model, camera="top") as viewer:
+        while data.time < 0.2:
+            mujoco.mj_step(model, data)
+            if round(data.time / model.opt.timestep) % 50 == 0:
+                viewer.record(data)
+        viewer.update(data)
+        assert viewer.flush() is not None
+        live = screenshot(viewer.url, live_png)
+        page = live_png.parent / "abdomen.html"
+        viewer.save(str(page))
+    recorded = screenshot(page.as_uri(), recorded_png, virtual_ms=3000)
+    return live, recorded, mujoco_top_view(live_png.parent / "mujoco.png", 0.2)
+
+
+@needs_chromium
+def test_abdomen_opens_framed_from_its_top_camera(tmp_path):
+    live, recorded, reference = abdomen_views(tmp_path / "live.png", tmp_path / "recorded.png")
+    expected = intestine_pixels(reference)
+    for name, image in (("live", live), ("recorded", recorded)):
+        share, x, y = framed_pixels(image)
+        assert share > 0.15 and 0.4 < x < 0.6 and 0.4 < y < 0.6, (name, share, x, y)
+        shown = intestine_pixels(image)
+        overlap = (shown & expected).sum() / (shown | expected).sum()
+        assert overlap > 0.6, (name, overlap)  # the same bowel at the same place as MuJoCo's own view
+        # no axes triad at the origin (pure red and green lines), no grid
+        assert ((image[..., 0] > 0.9) & (image[..., 1] < 0.1) & (image[..., 2] < 0.1)).sum() < 20
+
+
+if __name__ == "__main__":  # python tests/python/test_viewer.py: redraw the figures in docs/
+    abdomen_views(ROOT / "docs" / "cavity_meshcat_live.png", ROOT / "docs" / "cavity_meshcat_recorded.png")
