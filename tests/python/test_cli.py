@@ -6,7 +6,6 @@ that: a tool that simulated before checking its input times out instead of passi
 
 import argparse
 import importlib
-import os
 import pathlib
 import re
 import signal
@@ -123,43 +122,52 @@ def test_verbose_prints_the_traceback_too(tmp_path):
     assert result.stderr.splitlines()[-1].startswith(f"viscera: error: {path}: ")
 
 
-def test_ctrl_c_ends_a_run_in_one_line():
-    process = subprocess.Popen([sys.executable, "-m", "viscera", "run", str(PLANE), "--duration", "1000"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    seen = b""
-    while b"step" not in seen:  # the progress bar: it is stepping
-        chunk = os.read(process.stderr.fileno(), 4096)
-        assert chunk, seen
-        seen += chunk
-    process.send_signal(signal.SIGINT)
-    rest = process.communicate(timeout=QUICK)[1]
-    stderr = (seen + rest).decode()
+def _start(tmp_path, *args) -> tuple[subprocess.Popen, pathlib.Path, pathlib.Path]:
+    """`python -m viscera run *args` in the background, its output going to files."""
+    out, err = tmp_path / "stdout", tmp_path / "stderr"
+    with open(out, "w") as stdout, open(err, "w") as stderr:
+        process = subprocess.Popen([sys.executable, "-m", "viscera", "run", *map(str, args)], stdout=stdout,
+                                   stderr=stderr)
+    return process, out, err
+
+
+def _wait_for(process, path: pathlib.Path, text: str) -> None:
+    deadline = time.monotonic() + QUICK
+    while text not in path.read_text():
+        assert process.poll() is None and time.monotonic() < deadline, path.read_text()
+        time.sleep(0.1)
+
+
+def test_ctrl_c_ends_a_run_in_one_line(tmp_path):
+    process, _, err = _start(tmp_path, PLANE, "--duration", 1000)
+    try:
+        _wait_for(process, err, "step")  # the progress bar: it is stepping
+        process.send_signal(signal.SIGINT)
+        process.wait(timeout=QUICK)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    stderr = err.read_text()
     assert process.returncode == 130, stderr
     assert "Traceback" not in stderr
     assert stderr.strip().splitlines()[-1] == "viscera: interrupted"
 
 
-def test_hold_serves_the_final_state_until_ctrl_c():
-    process = subprocess.Popen([sys.executable, "-m", "viscera", "run", str(PLANE), "--duration", "0.1", "--quiet",
-                                "--viewer", "meshcat", "--camera", "overview", "--hold"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def test_hold_serves_the_final_state_until_ctrl_c(tmp_path):
+    process, out, err = _start(tmp_path, PLANE, "--duration", 0.1, "--quiet", "--viewer", "meshcat",
+                               "--camera", "overview", "--hold")
     try:
-        lines = []
-        deadline = time.monotonic() + QUICK
-        while not any("Ctrl-C to stop" in line for line in lines):
-            line = process.stdout.readline()
-            assert line and time.monotonic() < deadline, (lines, process.stderr.read() if not line else "")
-            lines.append(line)
-        assert any(line.startswith("intestine 'intestine'") for line in lines)  # the summary came first
+        _wait_for(process, out, "Ctrl-C to stop")
+        assert "intestine 'intestine'" in out.read_text()  # the summary came first
         time.sleep(1.0)
         assert process.poll() is None  # still serving
         process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=QUICK)
+        process.wait(timeout=QUICK)
     finally:
         if process.poll() is None:
             process.kill()
-    assert process.returncode == 0, stderr
-    assert "Traceback" not in stderr
+    assert process.returncode == 0, err.read_text()
+    assert "Traceback" not in err.read_text()
 
 
 def test_a_good_run_still_works(tmp_path):
