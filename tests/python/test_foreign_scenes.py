@@ -102,14 +102,15 @@ def test_a_start_inside_a_plane_is_pushed_out_once_warned_never_frozen(start):
 
 
 def test_the_push_out_speed_is_bounded_whatever_the_depth():
-    """Sideways from a plane, with gravity off: the tube leaves at about VSC_PUSH_OUT_SPEED
-    (1 m/s), not at depth x sqrt(k / m) (several m/s from one radius deep)."""
+    """Sideways from a plane, with gravity off: the tube leaves at about
+    sqrt(V^2 + k (r / 4)^2 / m_sphere) = 2 m/s (vsc_contact.h), not at depth x sqrt(k / m)
+    (7 m/s from one radius deep, undamped)."""
     model, data, gut, _ = suite_scene("manipulator.xml", start=[-0.5, 0.2, 0.5])
     model.opt.gravity[:] = 0.0
     with captured_warnings():
         _, fastest = run(model, data, gut, 0.1, fast_for=0.1)
     velocity = viscera.spline_points(gut.velocities(data), np.linspace(0, 1, 50))
-    assert -1.2 < velocity[:, 1].mean() < -0.5  # away from the plane, at a bounded speed
+    assert -2.1 < velocity[:, 1].mean() < -0.5  # away from the plane, at a bounded speed
     assert np.abs(velocity[:, [0, 2]]).max() < 0.3
     assert fastest < 3.5
 

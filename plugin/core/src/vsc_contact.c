@@ -36,13 +36,16 @@ static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], dou
   }
 }
 
-// Share of the penalty spring's push at separation speed `separation` (m/s):
-// all of it up to half VSC_PUSH_OUT_SPEED, none from VSC_PUSH_OUT_SPEED on, so
-// a sphere that starts deep in a geom leaves it at a bounded speed instead of
-// being shot out with all the spring's energy (1/2 k d^2 grows without bound).
-static inline double push_out_scale(double separation) {
-  double x = 2.0 - 2.0 * separation / VSC_PUSH_OUT_SPEED;
-  return x < 1.0 ? (x > 0.0 ? x : 0.0) : 1.0;
+// Share of the penalty spring's push at depth `depth` (m) and separation speed
+// `separation` (m/s), see VSC_PUSH_OUT_SPEED: all of it down to
+// VSC_DEEP_CONTACT radii; from twice that depth on, all of it below half
+// VSC_PUSH_OUT_SPEED and none from VSC_PUSH_OUT_SPEED on (linear between).
+static inline double push_share(double depth, double radius, double separation) {
+  double deep = VSC_DEEP_CONTACT * radius;
+  if (!(depth > deep) || !(separation > 0.5 * VSC_PUSH_OUT_SPEED)) return 1.0;  // the ordinary contacts
+  double slowed = 2.0 - 2.0 * separation / VSC_PUSH_OUT_SPEED;  // 1 at half the speed, 0 at the speed
+  double weight = depth < 2.0 * deep ? depth / deep - 1.0 : 1.0;
+  return 1.0 - weight * (1.0 - (slowed > 0.0 ? slowed : 0.0));
 }
 
 // Normal force, plus the friction force of a contact with relative velocity
@@ -53,7 +56,7 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
   double k = rod->def.contact_stiffness, c = rod->def.contact_damping;
   double approach = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
   double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
-  double normal = push_out_scale(approach) * k * spring - c * approach;
+  double normal = push_share(depth, rod->def.radius, approach) * k * spring - c * approach;
   if (!(normal > 0.0)) return 0.0;  // penalty contacts push, never pull
   double ft[3];
   for (int a = 0; a < 3; ++a) {

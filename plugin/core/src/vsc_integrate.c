@@ -265,13 +265,16 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
   return VSC_ERROR_DIVERGED;
 }
 
-// y = K x for the frequency estimate: the band part of the elastic Jacobian in
-// rod->system, the global length term's rank-one part K_g g (g . x), and, with
-// `contact` > 0 (N/m), a penalty spring of that stiffness at every sphere in
-// every direction.
+// y = K x for the frequency estimate: with `contact` = 0, the band part of the
+// elastic Jacobian in rod->system and the global length term's rank-one part
+// K_g g (g . x); with `contact` > 0 (N/m), only a penalty spring of that
+// stiffness at every sphere in every direction.
 static void stiffness_times(vsc_rod* rod, const double* gradient, double contact, const double* x, double* y) {
   int size = 3 * rod->n;
-  vsc_band_wide_multiply(rod->system, size, rod->jacobian_half_width, x, y);
+  if (contact > 0.0)  // the contact estimate alone: no elastic band
+    memset(y, 0, sizeof(double) * (size_t)size);
+  else
+    vsc_band_wide_multiply(rod->system, size, rod->jacobian_half_width, x, y);
   double gx = 0.0;
   for (int i = 0; i < size; ++i) gx += gradient[i] * x[i];
   for (int i = 0; i < size; ++i) y[i] += rod->def.global_stretch_stiffness * gx * gradient[i];
@@ -297,7 +300,11 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
     for (int c = 0; c < 3; ++c)
       x[3 * k + c] = (rod->is_pinned[k] ? 0.0 : 1.0) * ((k & 1) ? -1.0 : 1.0) * (1.0 + 0.37 * c + 0.01 * (k % 7));
   double lambda = 0.0;
-  for (int iteration = 0; iteration < VSC_FREQUENCY_ITERATIONS; ++iteration) {
+  // a bounded cost for huge rods: the estimate is then a little lower (the retries catch the rest)
+  double work = (double)size * (double)(rod->jacobian_half_width + 1);
+  int iterations = VSC_FREQUENCY_WORK / work < VSC_FREQUENCY_ITERATIONS ? (int)(VSC_FREQUENCY_WORK / work) : VSC_FREQUENCY_ITERATIONS;
+  if (iterations < 12) iterations = 12;
+  for (int iteration = 0; iteration < iterations; ++iteration) {
     stiffness_times(rod, gradient, contact, x, y);
     vsc_band_multiply3(rod->mass_band, rod->n, x, mx);
     double xkx = 0.0, xmx = 0.0;
@@ -317,7 +324,7 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
     if (!(norm > 0.0) || !isfinite(norm)) return lambda;  // no stiffness at all
     norm = 1.0 / sqrt(norm);
     for (int i = 0; i < size; ++i) x[i] = y[i] * norm;
-    if (iteration > 8 && fabs(lambda - previous) <= 1e-4 * lambda) break;
+    if (iteration > 8 && fabs(lambda - previous) <= 1e-3 * lambda) break;
   }
   return lambda;
 }
@@ -331,9 +338,7 @@ void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double*
   for (int k = 0; k < rod->n; ++k)
     if (rod->is_pinned[k]) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
   *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));
-  // contact alone: no elastic band, no global term
-  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
-  memset(gradient, 0, sizeof(double) * (size_t)size);
+  memset(gradient, 0, sizeof(double) * (size_t)size);  // contact alone: no global term either
   // a self-contact presses two spheres apart: twice the stiffness on their relative motion
   *contact = sqrt(largest_eigenvalue(rod, gradient, rod->def.contact_stiffness) * (rod->def.self_collision ? 2.0 : 1.0));
 }

@@ -12,9 +12,9 @@
 //
 // Spheres of radius def.radius sit uniformly in abscissa. A contact of depth
 // d > 0 and normal separation speed v_n pushes with
-// f_n = max(0, s(v_n) k min(d, VSC_SPRING_DEPTH r) - c v_n) along its normal
-// (k = contact_stiffness, c = contact_damping; s = 1 below VSC_PUSH_OUT_SPEED / 2,
-// falling to 0 at VSC_PUSH_OUT_SPEED, see there), applied at
+// f_n = max(0, s(d, v_n) k min(d, VSC_SPRING_DEPTH r) - c v_n) along its normal
+// (k = contact_stiffness, c = contact_damping; s = 1 except for deep contacts
+// separating fast, see VSC_PUSH_OUT_SPEED), applied at
 // the sphere's abscissa through the spline basis (virtual work); the partner
 // (geom or sphere) receives the opposite force.
 //
@@ -53,17 +53,25 @@
 /// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3).
 #define VSC_TOUCH_SIZE 18
 
-/// A penalty spring stops pushing a sphere out once it separates this fast
-/// (m/s; it pushes fully below half of it), and its push stops growing past a
-/// depth of VSC_SPRING_DEPTH radii: a sphere that starts deep in a geom leaves
-/// at about this speed whatever its depth, instead of being thrown out at
-/// d sqrt(k / m) with the spring's 1/2 k d^2. Only rebounds faster than half of
-/// it lose energy to this.
+/// Deep contacts push out at a bounded speed. A sphere that starts deep in a
+/// geom (placed there) would be thrown out at d sqrt(k / m) by the spring's
+/// 1/2 k d^2 (4 to 7 m/s from one radius deep at the defaults). So past
+/// VSC_DEEP_CONTACT radii the spring's push fades with the sphere's separation
+/// speed: in full below half this speed (m/s), none from this speed on, the
+/// fade itself reaching full weight at twice that depth; and past
+/// VSC_SPRING_DEPTH radii the push stops growing. The sphere then leaves at
+/// about sqrt(VSC_PUSH_OUT_SPEED^2 + k (VSC_DEEP_CONTACT r)^2 / m) (2 m/s at the
+/// defaults) whatever its depth. Ordinary contacts, the depths impacts reach
+/// (a quarter radius at 1.8 m/s at the defaults), are untouched, and the fade
+/// only ever takes energy out.
 #define VSC_PUSH_OUT_SPEED 1.0
+
+/// Depth (radii) past which a contact counts as deep (see VSC_PUSH_OUT_SPEED).
+#define VSC_DEEP_CONTACT 0.25
 
 /// The penalty spring's push grows with depth up to this many radii, then stays
 /// (k r / 2 = 12.5 N per sphere at the defaults, 200 times its weight; a tube
-/// pressed deeper would be half crushed). A deeper start is pushed out no
+/// pressed deeper would be half crushed): a deeper start is pushed out no
 /// harder, so an explicit substep overshoots the push-out speed less.
 #define VSC_SPRING_DEPTH 0.5
 
