@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import inspect
 import os
 import socket
 import sys
@@ -59,16 +58,6 @@ def _render_png(renderer: mujoco.Renderer, model: mujoco.MjModel, data: mujoco.M
     matplotlib.image.imsave(path, renderer.render())
 
 
-def _viewer(model: mujoco.MjModel, host: str, camera: int | None, hold: bool):
-    from viscera.viewer import MeshcatViewer
-    # the camera and hold() arrive with the framed viewer; say so rather than fail later
-    if hold and not hasattr(MeshcatViewer, "hold"):
-        raise UserError("--hold: this viewer cannot hold its final state yet", status=2)
-    if "camera" in inspect.signature(MeshcatViewer).parameters:
-        return MeshcatViewer(model, host=host, camera=camera)
-    return MeshcatViewer(model, host=host)
-
-
 def run(scene: str, duration: float, png: str | None = None, camera: str | None = None, quiet: bool = False,
         viewer: str | None = None, record: str | None = None, record_fps: float = 10.0, host: str = "127.0.0.1",
         hold: bool = False, report: Callable[[dict], None] | None = None) -> dict:
@@ -96,7 +85,8 @@ def run(scene: str, duration: float, png: str | None = None, camera: str | None 
         renderer = _renderer(model) if png else None  # a missing GL shows now, not after the run
         if viewer == "meshcat" or record:
             check_host(host)
-            view = _viewer(model, host, camera_index, hold)
+            from viscera.viewer import MeshcatViewer
+            view = MeshcatViewer(model, host=host, camera=camera_index)
             print(f"meshcat viewer: {view.url}", flush=True)
         wall = _simulate(model, data, steps, view, live=viewer == "meshcat", record=bool(record),
                          record_fps=record_fps, quiet=quiet, desc=os.path.basename(scene))
