@@ -336,7 +336,7 @@ def mujoco_top_view(path: pathlib.Path, seconds: float) -> np.ndarray:
     return matplotlib.image.imread(path)[..., :3]
 
 
-def abdomen_views(live_png: pathlib.Path, recorded_png: pathlib.Path) -> tuple:
+def abdomen_views(live_png: pathlib.Path, recorded_png: pathlib.Path, work: pathlib.Path) -> tuple:
     """Screenshots of the abdomen after 0.2 s, live and recorded, from its `top` camera; and MuJoCo's own."""
     model = mujoco.MjModel.from_xml_path(str(ABDOMEN))
     data = mujoco.MjData(model)
@@ -348,15 +348,15 @@ def abdomen_views(live_png: pathlib.Path, recorded_png: pathlib.Path) -> tuple:
         viewer.update(data)
         assert viewer.flush() is not None
         live = screenshot(viewer.url, live_png)
-        page = live_png.parent / "abdomen.html"
+        page = work / "abdomen.html"
         viewer.save(str(page))
     recorded = screenshot(page.as_uri(), recorded_png, virtual_ms=3000)
-    return live, recorded, mujoco_top_view(live_png.parent / "mujoco.png", 0.2)
+    return live, recorded, mujoco_top_view(work / "mujoco.png", 0.2)
 
 
 @needs_chromium
 def test_abdomen_opens_framed_from_its_top_camera(tmp_path):
-    live, recorded, reference = abdomen_views(tmp_path / "live.png", tmp_path / "recorded.png")
+    live, recorded, reference = abdomen_views(tmp_path / "live.png", tmp_path / "recorded.png", tmp_path)
     expected = intestine_pixels(reference)
     for name, image in (("live", live), ("recorded", recorded)):
         share, x, y = framed_pixels(image)
@@ -369,4 +369,5 @@ def test_abdomen_opens_framed_from_its_top_camera(tmp_path):
 
 
 if __name__ == "__main__":  # python tests/python/test_viewer.py: redraw the figures in docs/
-    abdomen_views(ROOT / "docs" / "cavity_meshcat_live.png", ROOT / "docs" / "cavity_meshcat_recorded.png")
+    abdomen_views(ROOT / "docs" / "cavity_meshcat_live.png", ROOT / "docs" / "cavity_meshcat_recorded.png",
+                  pathlib.Path(tempfile.mkdtemp()))
