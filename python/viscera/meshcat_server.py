@@ -2,7 +2,7 @@
 
     python -m viscera.meshcat_server [--host 127.0.0.1] [--port 7000] [--parent PID]
 
-prints ``zmq_url=...`` and ``web_url=...`` lines like meshcat-server does, then serves
+prints zmq_url=... and web_url=... lines like meshcat-server does, then serves
 meshcat's bundled page on `--host` only (loopback by default: meshcat's own server
 listens on every interface) and takes drawing commands on a loopback zmq ROUTER socket.
 
@@ -138,7 +138,8 @@ class Server:
             (r"/", Browser, {"server": self}),
         ])
         self.http = self._listen(app, host, port)
-        self.web_url = f"http://{host}:{self.web_port}/static/"
+        netloc = f"[{host}]" if ":" in host else host  # an IPv6 literal needs brackets in a URL
+        self.web_url = f"http://{netloc}:{self.web_port}/static/"
         self.context = zmq.Context()
         self.socket = self.context.socket(zmq.ROUTER)
         self.socket.setsockopt(zmq.LINGER, 0)

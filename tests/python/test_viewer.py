@@ -90,6 +90,15 @@ def test_viewer_serves_on_loopback_only():
         assert listening_addresses(web_port(viewer.url)) == {"0100007F"}  # 127.0.0.1, nothing else
 
 
+@pytest.mark.skipif(not socket.has_ipv6 or not pathlib.Path("/proc/net/tcp6").exists(), reason="no IPv6")
+def test_viewer_url_brackets_an_ipv6_host():
+    model = mujoco.MjModel.from_xml_path(str(SCENE))
+    with MeshcatViewer(model, host="::1") as viewer:
+        assert viewer.url.startswith("http://[::1]:")
+        with urllib.request.urlopen(viewer.url, timeout=30) as page:  # a URL a browser can open
+            assert page.status == 200
+
+
 @needs_chromium
 def test_live_view_shows_the_intestine(tmp_path):
     model, data = settled_scene()
