@@ -93,7 +93,15 @@ def _heightfield(model: mujoco.MjModel, hfield: int) -> g.TriangularMeshGeometry
 
 def geom_geometry(model: mujoco.MjModel, geom: int):
     """meshcat geometry of a MuJoCo geom in its own frame, or None if not drawable."""
-    kind, size = model.geom_type[geom], model.geom_size[geom]
+    return _shape(model, model.geom_type[geom], model.geom_size[geom], model.geom_dataid[geom])
+
+
+def site_geometry(model: mujoco.MjModel, site: int):
+    """meshcat geometry of a MuJoCo site (sphere, capsule, ellipsoid, cylinder or box) in its own frame."""
+    return _shape(model, model.site_type[site], model.site_size[site], -1)
+
+
+def _shape(model: mujoco.MjModel, kind: int, size: np.ndarray, dataid: int):
     T = mujoco.mjtGeom
     if kind == T.mjGEOM_PLANE:
         sx, sy = (size[0] or 5.0), (size[1] or 5.0)  # size 0: an infinite plane
@@ -109,19 +117,22 @@ def geom_geometry(model: mujoco.MjModel, geom: int):
     if kind == T.mjGEOM_CYLINDER:
         return _cylinder(size[0], size[1])
     if kind == T.mjGEOM_MESH:
-        mesh = model.geom_dataid[geom]
+        mesh = dataid
         v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
         f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
         return g.TriangularMeshGeometry(model.mesh_vert[v0:v0 + nv], model.mesh_face[f0:f0 + nf])
     if kind == T.mjGEOM_HFIELD:
-        return _heightfield(model, model.geom_dataid[geom])
+        return _heightfield(model, dataid)
     return None
 
 
-def geom_transform(data: mujoco.MjData, geom: int) -> np.ndarray:
+def part_transform(data: mujoco.MjData, part: tuple[str, int]) -> np.ndarray:
+    """World pose of a drawn part, ("geoms", id) or ("sites", id), as a 4 x 4 matrix."""
+    kind, index = part
+    prefix = kind[:-1]  # geom_xpos, site_xpos
     transform = np.eye(4)
-    transform[:3, :3] = data.geom_xmat[geom].reshape(3, 3)
-    transform[:3, 3] = data.geom_xpos[geom]
+    transform[:3, :3] = getattr(data, f"{prefix}_xmat")[index].reshape(3, 3)
+    transform[:3, 3] = getattr(data, f"{prefix}_xpos")[index]
     return transform
 
 
@@ -238,6 +249,11 @@ def _interrupt(signum, frame):
 
 def _visible(model: mujoco.MjModel, geom: int) -> bool:
     return model.geom_group[geom] < 3 and model.geom_rgba[geom][3] > 0
+
+
+def _site_visible(model: mujoco.MjModel, site: int) -> bool:
+    """Drawn as MuJoCo's renderer draws it by default: groups 0-2, not fully transparent."""
+    return model.site_group[site] < 3 and model.site_rgba[site][3] > 0
 
 
 def camera_id(model: mujoco.MjModel, camera: int | str) -> int:
@@ -385,9 +401,15 @@ class MeshcatViewer:
                 rgba = model.mat_rgba[material]
             self.vis["geoms"][str(geom)].set_object(shape, _material(rgba))
             self.geoms.append(geom)
-        bodies = model.geom_bodyid[self.geoms]
+        # sites too (the cavity's target area, trocars, jaw tips), as MuJoCo's renderer shows them
+        self.sites = [site for site in range(model.nsite) if _site_visible(model, site)]
+        for site in self.sites:
+            self.vis["sites"][str(site)].set_object(site_geometry(model, site), _material(model.site_rgba[site]))
+        self.parts = [("geoms", geom) for geom in self.geoms] + [("sites", site) for site in self.sites]
+        bodies = np.array([(model.geom_bodyid if kind == "geoms" else model.site_bodyid)[index]
+                           for kind, index in self.parts], dtype=int)
         moving = (model.body_weldid[bodies] != 0) | (model.body_mocapid[model.body_rootid[bodies]] >= 0)
-        self._moving = [geom for geom, moves in zip(self.geoms, moving) if moves]
+        self._moving = [part for part, moves in zip(self.parts, moving) if moves]
         self._placed = False
         self._skin_material = _material((*INTESTINE_RGB, 1.0))
         for helper in ("/Axes", "/Grid"):  # drawn through the scene; planes are drawn as geoms
@@ -417,8 +439,8 @@ class MeshcatViewer:
 
     def update(self, data: mujoco.MjData) -> None:
         """Show the state of `data`: geom poses and every intestine's skin. Never waits for a browser."""
-        for geom in self._moving if self._placed else self.geoms:  # the others never move
-            self.vis["geoms"][str(geom)].set_transform(geom_transform(data, geom))
+        for kind, index in self._moving if self._placed else self.parts:  # the others never move
+            self.vis[kind][str(index)].set_transform(part_transform(data, (kind, index)))
         self._placed = True
         for gut in self.intestines:
             vertices, _, triangles = viscera.skin(self.model, data, gut.instance)
@@ -432,7 +454,7 @@ class MeshcatViewer:
         """Keep the state of `data` as the next frame of the recording (a coarser skin)."""
         rings, points = self.record_resolution
         skins = {gut.name: viscera.skin(self.model, data, gut.instance, rings, points)[::2] for gut in self.intestines}
-        poses = {geom: geom_transform(data, geom) for geom in self._moving}
+        poses = {part: part_transform(data, part) for part in self._moving}
         self.frames.append((skins, poses))
 
     def save(self, path: str, fps: float = 10.0) -> int:
@@ -463,8 +485,8 @@ class MeshcatViewer:
                     with animation.at_frame(self.vis, time_in_frames) as frame:
                         frame["recording"][name][str(k)].set_transform(transform)
             with animation.at_frame(self.vis, k) as frame:
-                for geom, transform in poses.items():
-                    frame["geoms"][str(geom)].set_transform(transform)
+                for (kind, index), transform in poses.items():
+                    frame[kind][str(index)].set_transform(transform)
         self.vis["intestines"].delete()  # the recording replaces the live skin
         self.vis.set_animation(animation, play=True, repetitions=1000)
         html = self.vis.static_html()

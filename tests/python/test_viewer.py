@@ -337,6 +337,12 @@ with mujoco.Renderer(model, 600, 800) as renderer:
 """
 
 
+def target_pixels(image: np.ndarray) -> np.ndarray:
+    """Mask of the cavity's target area, the green site (0.2, 0.8, 0.3), lit or shaded."""
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    return (g > 0.45) & (g > 1.5 * r) & (g > 1.3 * b)
+
+
 def mujoco_top_view(path: pathlib.Path, seconds: float) -> np.ndarray:
     """MuJoCo's own picture of the abdomen from its `top` camera (in a process of its own:
     the GL backend is chosen when mujoco is first imported)."""
@@ -373,6 +379,10 @@ def test_abdomen_opens_framed_from_its_top_camera(tmp_path):
         shown = intestine_pixels(image)
         overlap = (shown & expected).sum() / (shown | expected).sum()
         assert overlap > 0.6, (name, overlap)  # the same bowel at the same place as MuJoCo's own view
+        # sites are drawn as MuJoCo draws them: the green target area shows where it shows there
+        target, expected_target = target_pixels(image), target_pixels(reference)
+        assert expected_target.sum() > 100
+        assert (target & expected_target).sum() / (target | expected_target).sum() > 0.5, name
         # no axes triad at the origin (pure red and green lines), no grid
         assert ((image[..., 0] > 0.9) & (image[..., 1] < 0.1) & (image[..., 2] < 0.1)).sum() < 20
 
