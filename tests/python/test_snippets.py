@@ -39,3 +39,12 @@ def test_snippet_runs_alone(code, not_run, tmp_path):
                             timeout=600, env={**os.environ, "TMPDIR": str(tmp_path)})
     assert result.returncode == 0, f"{result.stdout[-2000:]}\n{result.stderr[-4000:]}"
     assert "Traceback" not in result.stderr
+
+
+def test_readme_names_every_system_package_ci_installs():
+    """A user on a fresh Debian machine learns from the README what CI installs with apt."""
+    ci = (ROOT / ".ci" / "run").read_text()
+    packages = re.search(r'^packages="([^"]+)"', ci, re.M).group(1).split()
+    readme_apt = " ".join(re.findall(r"apt-get install ([^\n#]+)", (ROOT / "README.md").read_text())).split()
+    missing = [p for p in packages if p not in readme_apt and p != "ninja-build"]  # pip brings ninja itself
+    assert missing == [], f"README's apt-get lines lack {missing}"
