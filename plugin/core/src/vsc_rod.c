@@ -152,7 +152,7 @@ double vsc_rod_memory_bytes(const vsc_rod_def* def) {
   double tethers = def->mesentery_points > 0 ? def->mesentery_points : 1;
   double per_sample = sizeof(vsc_basis) + 10.0 * sizeof(double) + 27.0 * sizeof(double);
   double per_point = 9.0 * sizeof(double) + 1.0 + 3.0 * sizeof(int) + (4.0 * S + 1.0) * sizeof(double) +
-                     24.0 * sizeof(double) + 6.0 * sizeof(double) +
+                     24.0 * sizeof(double) + 12.0 * sizeof(double) +
                      3.0 * (jacobian_half_width_bound(def->samples_per_segment) + 1.0) * sizeof(double);
   double per_sphere = sizeof(vsc_basis) + 6.0 * sizeof(double) + (VSC_STICK_SIZE + VSC_TOUCH_SIZE) * sizeof(double);
   double bytes = sizeof(vsc_rod) + N * per_sample + n * per_point + spheres * per_sphere +
@@ -199,7 +199,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   rod->sample_hessian = (double*)malloc(sizeof(double) * 27 * (size_t)N);
-  rod->backup = (double*)malloc(sizeof(double) * (6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
+  rod->backup = (double*)malloc(sizeof(double) * (12 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
   rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
   rod->tether_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * (size_t)(def->mesentery_points > 0 ? def->mesentery_points : 1));
   vsc_grid_create(spheres, &rod->grid);
@@ -221,6 +221,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
     rod->is_pinned[def->pinned[i]] = 1;
   }
   rod->def.pinned = rod->pinned;
+  rod->energy_state = rod->backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
@@ -532,6 +533,19 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
     }
   }
   return e;
+}
+
+double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
+  size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
+  double* known_q = rod->energy_state;
+  double* known_v = known_q + 3 * rod->n;
+  if (rod->energy_known && memcmp(known_q, q, bytes) == 0 && memcmp(known_v, v, bytes) == 0)
+    return rod->energy_active;  // the step's end, now the next step's start
+  rod->energy_active = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
+  memcpy(known_q, q, bytes);
+  memcpy(known_v, v, bytes);
+  rod->energy_known = 1;
+  return rod->energy_active;
 }
 
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {
