@@ -11,7 +11,7 @@ enum { T_PARTNER = 0, T_NORMAL_FORCE = 1, T_MU = 2, T_NORMAL = 3, T_TANGENT_VELO
 typedef struct pass {
   vsc_rod* rod;
   const vsc_world* world;
-  double* Q;               // per sphere, this evaluation's contact force (N, 3 each)
+  double* Q;
   int contacts;
   int geom;                // index of the geom being queried
   const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's
@@ -26,26 +26,13 @@ void vsc_stick_clear(double* stick, int count) {
   }
 }
 
-// Contact forces add up per sphere first (3 numbers a contact); one pass then
-// takes them to the control points through the spline basis (virtual work).
-static inline void add_at_sphere(double* sphere_force, int sphere, const double f[3]) {
-  double* out = sphere_force + 3 * sphere;
-  out[0] += f[0];
-  out[1] += f[1];
-  out[2] += f[2];
-}
-
-static void spread_sphere_forces(const vsc_rod* rod, const double* sphere_force, double* Q) {
-  for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
-    const double* f = sphere_force + 3 * i;
-    if (f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0) continue;  // most spheres touch nothing
-    const vsc_basis* b = &rod->sphere_basis[i];
-    double* out = Q + 3 * b->first;
-    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
-      out[3 * j] += b->weight[j] * f[0];
-      out[3 * j + 1] += b->weight[j] * f[1];
-      out[3 * j + 2] += b->weight[j] * f[2];
-    }
+static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
+  const vsc_basis* b = &rod->sphere_basis[sphere];
+  double* out = Q + 3 * b->first;
+  for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
+    out[3 * j] += b->weight[j] * f[0];
+    out[3 * j + 1] += b->weight[j] * f[1];
+    out[3 * j + 2] += b->weight[j] * f[2];
   }
 }
 
@@ -171,13 +158,13 @@ static void self_pair(void* context, int earlier, int item) {
   if (normal <= 0.0) return;
   double share[3];
   for (int c = 0; c < 3; ++c) share[c] = (1.0 - s) * f[c];
-  add_at_sphere(p->Q, a, share);
+  add_at_sphere(rod, a, share, p->Q);
   for (int c = 0; c < 3; ++c) share[c] = s * f[c];
-  add_at_sphere(p->Q, a + 1, share);
+  add_at_sphere(rod, a + 1, share, p->Q);
   for (int c = 0; c < 3; ++c) share[c] = -(1.0 - t) * f[c];
-  add_at_sphere(p->Q, b, share);
+  add_at_sphere(rod, b, share, p->Q);
   for (int c = 0; c < 3; ++c) share[c] = -t * f[c];
-  add_at_sphere(p->Q, b + 1, share);
+  add_at_sphere(rod, b + 1, share, p->Q);
   record_touch(rod->touch + VSC_TOUCH_SIZE * a + SELF, b, normal, mu, n, tangent);
   ++p->contacts;
 }
@@ -209,7 +196,7 @@ static void sphere_geom(void* context, int i) {
   double f[3], tangent[3];
   double normal = contact_force(rod, depth, n, relative, geom->friction, elongation, f, tangent);
   if (normal <= 0.0) return;
-  add_at_sphere(p->Q, i, f);
+  add_at_sphere(rod, i, f, p->Q);
   if (p->world->geom_wrench) {
     double w = p->world->wrench_weight, *out = p->world->geom_wrench + 6 * p->geom;
     double arm[3] = {point[0] - geom->position[0], point[1] - geom->position[1], point[2] - geom->position[2]};
@@ -245,7 +232,6 @@ struct vsc_contact_lists {
   double* segment_moved;      // per segment: the larger of its two spheres' `moved` (m)
   double* geom_moved;         // per sphere: distance moved since the geom build (m)
   double* build_scratch;      // per segment, during a self build: midpoint (3), reach, excess
-  double* sphere_force;       // per sphere, each evaluation: the contact forces on it (N, 3)
   const vsc_geom* geoms;      // the host's geom array at build
 };
 
@@ -259,7 +245,7 @@ struct vsc_contact_lists {
 double vsc_contact_lists_memory_bytes(int spheres) {
   return sizeof(vsc_contact_lists) +
          (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) +
-                            21.0 * sizeof(double));
+                            18.0 * sizeof(double));
 }
 
 vsc_contact_lists* vsc_contact_lists_create(int spheres) {
@@ -275,7 +261,7 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
-  l->moved = (double*)malloc(sizeof(double) * 11 * (size_t)spheres);
+  l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
   if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->sphere_xyz ||
       !l->geom_sphere_xyz || !l->segment || !l->moved) {
     vsc_contact_lists_destroy(l);
@@ -284,7 +270,6 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->segment_moved = l->moved + spheres;
   l->geom_moved = l->segment_moved + spheres;
   l->build_scratch = l->geom_moved + spheres;
-  l->sphere_force = l->build_scratch + 5 * (size_t)spheres;
   return l;
 }
 
@@ -595,21 +580,9 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
 // distance cannot touch: skip it. The relative slack covers rounding.
 #define SKIP_SLACK (1.0 + 1e-9)
 
-static int find_contacts(vsc_rod* rod, const vsc_world* world, double* sphere_force);
-
 int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
-  double* sphere_force = rod->lists->sphere_force;
-  memset(sphere_force, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
-  int contacts = find_contacts(rod, world, sphere_force);
-  spread_sphere_forces(rod, sphere_force, Q);
-  return contacts;
-}
-
-// The narrow phase over the lists (rebuilt first if stale): forces into
-// sphere_force, reactions and touch records; returns the number of contacts.
-static int find_contacts(vsc_rod* rod, const vsc_world* world, double* sphere_force) {
   int spheres = rod->def.collision_sphere_count;
-  pass p = {rod, world, sphere_force, 0, -1};
+  pass p = {rod, world, Q, 0, -1};
   for (int i = 0; i < spheres; ++i) {
     double* touch = rod->touch + VSC_TOUCH_SIZE * i;
     touch[RIGID + T_PARTNER] = touch[SELF + T_PARTNER] = -1.0;
