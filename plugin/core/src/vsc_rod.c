@@ -103,6 +103,10 @@ static void assemble_mass(vsc_rod* rod) {
       if (j != i) rod->mass_row_sum[j] += a;
     }
   }
+  if (!rod->def.lumped_mass) return;
+  // lumped: each row's sum on the diagonal (same total mass and gravity forces)
+  memset(rod->mass_band, 0, sizeof(double) * 4 * n);
+  for (int k = 0; k < n; ++k) rod->mass_band[4 * k + 3] = rod->mass_row_sum[k];
 }
 
 // The pinned points' accelerations are zero: solving the principal submatrix of
