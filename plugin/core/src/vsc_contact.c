@@ -27,12 +27,15 @@ void vsc_stick_clear(double* stick, int count) {
 }
 
 static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
+  // weights and force in locals: the stores to Q then force no reloads
   const vsc_basis* b = &rod->sphere_basis[sphere];
   double* out = Q + 3 * b->first;
+  const double f0 = f[0], f1 = f[1], f2 = f[2];
+  const double w[VSC_SPLINE_SUPPORT] = {b->weight[0], b->weight[1], b->weight[2], b->weight[3]};
   for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
-    out[3 * j] += b->weight[j] * f[0];
-    out[3 * j + 1] += b->weight[j] * f[1];
-    out[3 * j + 2] += b->weight[j] * f[2];
+    out[3 * j] += w[j] * f0;
+    out[3 * j + 1] += w[j] * f1;
+    out[3 * j + 2] += w[j] * f2;
   }
 }
 
@@ -117,11 +120,14 @@ static void closest_segments(const double* p0, const double* p1, const double* q
 // Capsule contact of segments a < b (segment k joins spheres k and k + 1).
 // Closest points of segments a (sphere a to a + 1) and b of the sphere chain x:
 // their parameters s, t, the vector d from b's point to a's (m), its length (m).
-static double segment_gap(const double* x, int a, int b, double* s, double* t, double d[3]) {
-  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, s, t);
+static double segment_gap(const double* x, int a, int b, double* s_out, double* t_out, double d[3]) {
+  double s, t;
+  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
+  *s_out = s;
+  *t_out = t;
   for (int c = 0; c < 3; ++c) {
-    double P = (1.0 - *s) * x[3 * a + c] + *s * x[3 * a + 3 + c];
-    double Q = (1.0 - *t) * x[3 * b + c] + *t * x[3 * b + 3 + c];
+    double P = (1.0 - s) * x[3 * a + c] + s * x[3 * a + 3 + c];
+    double Q = (1.0 - t) * x[3 * b + c] + t * x[3 * b + 3 + c];
     d[c] = P - Q;
   }
   return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
