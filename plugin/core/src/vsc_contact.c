@@ -14,7 +14,7 @@ typedef struct pass {
   double* Q;
   int contacts;
   int geom;                // index of the geom being queried
-  const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's
+  const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's (NULL: not used)
 } pass;
 
 void vsc_stick_clear(double* stick, int count) {
@@ -139,12 +139,15 @@ static void self_pair(void* context, int earlier, int item) {
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
   const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
-  // cheap exact rejection: segments within 2r of each other have midpoints within
-  // 2r + half of each length (about half the candidates of a list are not touching)
-  const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
-  double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
-  double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
-  if (gap2 >= reach * reach) return;
+  if (p->segment) {
+    // testing every pair (no lists): a cheap exact rejection first, segments within
+    // 2r of each other have midpoints within 2r + half of each length (the lists'
+    // pairs need none: their build distances already rule out all but ~1 %)
+    const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
+    double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
+    double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
+    if (gap2 >= reach * reach) return;
+  }
   double s, t, vp[3], vq[3], d[3];
   double distance = segment_gap(x, a, b, &s, &t, d);
   double depth = 2.0 * rod->def.radius - distance;
@@ -392,8 +395,23 @@ static void no_pair(void* context, int earlier, int item) { (void)context; (void
 // over contiguous arrays (vectorised), then the exact distance. For chains up
 // to DIRECT_BUILD_SPHERES this costs a fraction of a grid pass, whose cells at
 // the pair reach hold dozens of segments in a pile.
+// Midpoint and half length of every segment into the lists' segment array.
+static void update_segments(vsc_rod* rod) {
+  const double* x = rod->sphere_xyz;
+  for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a) {
+    double* out = rod->lists->segment + 4 * a;
+    double length2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
+      length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
+    }
+    out[3] = 0.5 * sqrt(length2);
+  }
+}
+
 static void build_self_direct(vsc_rod* rod, build* b) {
   vsc_contact_lists* l = rod->lists;
+  update_segments(rod);
   int segments = rod->def.collision_sphere_count - 1;
   double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->def.radius;
   const double* seg = l->segment;  // midpoints and half lengths, current
@@ -595,25 +613,14 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     touch[RIGID + T_NORMAL_FORCE] = touch[SELF + T_NORMAL_FORCE] = 0.0;
   }
   vsc_contact_lists* l = rod->lists;
-  p.segment = l->segment;
-  if (rod->def.self_collision) {
-    const double* x = rod->sphere_xyz;
-    for (int a = 0; a + 1 < spheres; ++a) {
-      double* out = l->segment + 4 * a;
-      double length2 = 0.0;
-      for (int c = 0; c < 3; ++c) {
-        out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
-        length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
-      }
-      out[3] = 0.5 * sqrt(length2);
-    }
-  }
   int self_fresh = 0, geoms_fresh = 0;
   int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
   int geoms_ok = geoms_valid(rod, world) || (geoms_fresh = 1, build_geoms(rod, world));
   if (!self_ok || !geoms_ok) {
     // a list overflowed (an extreme pile): this evaluation tests everything directly
     l->self_built = l->geoms_built = 0;
+    if (rod->def.self_collision) update_segments(rod);
+    p.segment = l->segment;
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
       for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(&p, a, b);
     for (int g = 0; g < world->geom_count; ++g) {
