@@ -17,7 +17,8 @@ const char* const vsc_plugin_attributes[] = {
     "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
     "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
     "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
-    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped", "divergence_retries"};
+    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped", "divergence_retries",
+    "mass_matrix"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define VSC_PI 3.14159265358979323846
@@ -381,6 +382,10 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (chosen < 0)
     return fail(&r, "attribute 'integrator' = '%s' must be rk4, symplectic_euler or implicit", integrator);
   c->step.integrator = integrators[chosen];
+  const char* mass_matrix = raw(&r, "mass_matrix");
+  if (mass_matrix && strcmp(mass_matrix, "consistent") != 0 && strcmp(mass_matrix, "lumped") != 0)
+    return fail(&r, "attribute 'mass_matrix' = '%s' must be consistent or lumped", mass_matrix);
+  d->lumped_mass = mass_matrix && strcmp(mass_matrix, "lumped") == 0;
   const char* clamped = raw(&r, "clamped");
   static const char* const clamp_names[4] = {"none", "start", "end", "both"};
   int clamp = clamped ? -1 : 0;

@@ -32,6 +32,7 @@ BAD = [
     ({"substeps": "0"}, ["substeps", "0"]),
     ({"collision_spheres": "1"}, ["collision_spheres", "1"]),
     ({"integrator": "euler"}, ["integrator", "euler", "symplectic_euler", "implicit"]),
+    ({"mass_matrix": "diagonal"}, ["mass_matrix", "diagonal", "consistent", "lumped"]),
     ({"divergence_retries": "11"}, ["divergence_retries", "11"]),
     ({"divergence_retries": "-1"}, ["divergence_retries", "-1"]),
     ({"pinned": "0 250"}, ["pinned", "250"]),

@@ -14,7 +14,7 @@ typedef struct pass {
   double* Q;
   int contacts;
   int geom;                // index of the geom being queried
-  const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's
+  const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's (NULL: not used)
 } pass;
 
 void vsc_stick_clear(double* stick, int count) {
@@ -27,12 +27,15 @@ void vsc_stick_clear(double* stick, int count) {
 }
 
 static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
+  // weights and force in locals: the stores to Q then force no reloads
   const vsc_basis* b = &rod->sphere_basis[sphere];
   double* out = Q + 3 * b->first;
+  const double f0 = f[0], f1 = f[1], f2 = f[2];
+  const double w[VSC_SPLINE_SUPPORT] = {b->weight[0], b->weight[1], b->weight[2], b->weight[3]};
   for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
-    out[3 * j] += b->weight[j] * f[0];
-    out[3 * j + 1] += b->weight[j] * f[1];
-    out[3 * j + 2] += b->weight[j] * f[2];
+    out[3 * j] += w[j] * f0;
+    out[3 * j + 1] += w[j] * f1;
+    out[3 * j + 2] += w[j] * f2;
   }
 }
 
@@ -130,11 +133,14 @@ static void closest_segments(const double* p0, const double* p1, const double* q
 // Capsule contact of segments a < b (segment k joins spheres k and k + 1).
 // Closest points of segments a (sphere a to a + 1) and b of the sphere chain x:
 // their parameters s, t, the vector d from b's point to a's (m), its length (m).
-static double segment_gap(const double* x, int a, int b, double* s, double* t, double d[3]) {
-  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, s, t);
+static double segment_gap(const double* x, int a, int b, double* s_out, double* t_out, double d[3]) {
+  double s, t;
+  closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
+  *s_out = s;
+  *t_out = t;
   for (int c = 0; c < 3; ++c) {
-    double P = (1.0 - *s) * x[3 * a + c] + *s * x[3 * a + 3 + c];
-    double Q = (1.0 - *t) * x[3 * b + c] + *t * x[3 * b + 3 + c];
+    double P = (1.0 - s) * x[3 * a + c] + s * x[3 * a + 3 + c];
+    double Q = (1.0 - t) * x[3 * b + c] + t * x[3 * b + 3 + c];
     d[c] = P - Q;
   }
   return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -146,12 +152,15 @@ static void self_pair(void* context, int earlier, int item) {
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
   const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
-  // cheap exact rejection: segments within 2r of each other have midpoints within
-  // 2r + half of each length (about half the candidates of a list are not touching)
-  const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
-  double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
-  double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
-  if (gap2 >= reach * reach) return;
+  if (p->segment) {
+    // testing every pair (no lists): a cheap exact rejection first, segments within
+    // 2r of each other have midpoints within 2r + half of each length (the lists'
+    // pairs need none: their build distances already rule out all but ~1 %)
+    const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
+    double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
+    double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
+    if (gap2 >= reach * reach) return;
+  }
   double s, t, vp[3], vq[3], d[3];
   double distance = segment_gap(x, a, b, &s, &t, d);
   double depth = 2.0 * rod->def.radius - distance;
@@ -228,26 +237,37 @@ struct vsc_contact_lists {
   int sphere_count;
   int self_count, self_capacity;
   int* self_pairs;            // candidate sphere pairs a < b, sorted (2 per pair)
+  double* self_distance;      // each self pair's segment distance at the build (m)
   int geom_count, geom_capacity;
   int* geom_pairs;            // candidate (geom, sphere) pairs, sorted (2 per pair)
+  double* geom_distance;      // each geom pair's distance at the build (m; -inf: never skipped)
   int self_built;             // 0: the self pairs must be built
   int geoms_built;            // 0: the geom pairs must be built
   int built_geoms;            // geom count at the geom pairs' build
   int built_geom_capacity;
   double* sphere_xyz;         // sphere centres at the self pairs' build (3 per sphere) (m)
   double* geom_sphere_xyz;    // sphere centres at the geom pairs' build (3 per sphere) (m)
-  double* geom_pose;          // geom position and rotation at build (12 per geom)
+  double* geom_pose;          // geom position and rotation at build (12 per geom), then each
+                              // geom's surface motion since (1 per geom) (m)
   double* segment;            // per segment, each evaluation: midpoint (m, 3), half length (m)
+  double* moved;              // per sphere, each evaluation: distance moved since the self build (m)
+  double* segment_moved;      // per segment: the larger of its two spheres' `moved` (m)
+  double* geom_moved;         // per sphere: distance moved since the geom build (m)
+  double* build_scratch;      // per segment, during a self build: midpoint (3), reach, excess
   const vsc_geom* geoms;      // the host's geom array at build
 };
 
 // pair capacities per sphere: dense piles hold ~30 neighbouring segments within 2r + m
 #define SELF_PAIRS_PER_SPHERE 64
 #define GEOM_PAIRS_PER_SPHERE 8
+// up to this many spheres the lists are built by testing every pair (no
+// hashing, cache-friendly, already sorted); past it through the grid, O(n)
+#define DIRECT_BUILD_SPHERES 1024
 
 double vsc_contact_lists_memory_bytes(int spheres) {
   return sizeof(vsc_contact_lists) +
-         (double)spheres * (2.0 * sizeof(int) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) + 10.0 * sizeof(double));
+         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) +
+                            18.0 * sizeof(double));
 }
 
 vsc_contact_lists* vsc_contact_lists_create(int spheres) {
@@ -257,24 +277,34 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->self_capacity = SELF_PAIRS_PER_SPHERE * spheres;
   l->geom_capacity = GEOM_PAIRS_PER_SPHERE * spheres;
   l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
+  l->self_distance = (double*)malloc(sizeof(double) * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
+  l->geom_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
-  if (!l->self_pairs || !l->geom_pairs || !l->sphere_xyz || !l->geom_sphere_xyz || !l->segment) {
+  l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
+  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->sphere_xyz ||
+      !l->geom_sphere_xyz || !l->segment || !l->moved) {
     vsc_contact_lists_destroy(l);
     return NULL;
   }
+  l->segment_moved = l->moved + spheres;
+  l->geom_moved = l->segment_moved + spheres;
+  l->build_scratch = l->geom_moved + spheres;
   return l;
 }
 
 void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   if (!l) return;
   free(l->self_pairs);
+  free(l->self_distance);
   free(l->geom_pairs);
+  free(l->geom_distance);
   free(l->sphere_xyz);
   free(l->geom_sphere_xyz);
   free(l->segment);
+  free(l->moved);
   free(l->geom_pose);
   free(l);
 }
@@ -323,15 +353,12 @@ typedef struct build {
   int overflow;
 } build;
 
-static void collect_self(void* context, int earlier, int item) {
-  build* b = (build*)context;
+// Add self pair (lo, hi) if its segments are within 2r + m (exact distance):
+// while no sphere moves m / 2 the distance shrinks by less than m, so the
+// others cannot touch before the lists are rebuilt; overlapping grid boxes alone
+// admit several times more pairs.
+static void keep_self(build* b, int lo, int hi) {
   vsc_contact_lists* l = b->rod->lists;
-  int lo = earlier < item ? earlier : item, hi = earlier < item ? item : earlier;
-  if (hi - lo < b->rod->self_gap) return;
-  // keep only segments within 2r + m of each other (exact distance): while no
-  // sphere moves m / 2 the distance shrinks by less than m, so the others cannot
-  // touch before the lists are rebuilt; overlapping grid boxes alone admit
-  // several times more pairs, which every force evaluation would then test
   double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
   double distance = segment_gap(b->rod->sphere_xyz, lo, hi, &s, &t, d);
   if (distance > limit) return;
@@ -341,63 +368,130 @@ static void collect_self(void* context, int earlier, int item) {
   }
   l->self_pairs[2 * l->self_count] = lo;
   l->self_pairs[2 * l->self_count + 1] = hi;
+  l->self_distance[l->self_count] = distance;
   ++l->self_count;
+}
+
+static void collect_self(void* context, int earlier, int item) {
+  build* b = (build*)context;
+  int lo = earlier < item ? earlier : item, hi = earlier < item ? item : earlier;
+  if (hi - lo < b->rod->self_gap) return;
+  keep_self(b, lo, hi);
+}
+
+// The distance filter needs a distance that changes no faster than the point
+// moves: exact distances do, a height field's does not (it jumps at its
+// sides), so a height field keeps every grid candidate and is never skipped.
+static double filter_distance(const vsc_geom* geom, const double* x) {
+  double n[3];
+  return geom->type != VSC_GEOM_HEIGHTFIELD ? vsc_geom_distance(geom, x, n) : -INFINITY;
 }
 
 static void collect_geom(void* context, int i) {
   build* b = (build*)context;
   vsc_contact_lists* l = b->rod->lists;
-  // the distance filter needs a distance that changes no faster than the point
-  // moves: exact distances do, a height field's does not (it jumps at its
-  // sides), so a height field keeps every grid candidate
-  const vsc_geom* geom = &b->world->geoms[b->geom];
-  double n[3];
-  int exact = geom->type != VSC_GEOM_HEIGHTFIELD;
-  if (exact && vsc_geom_distance(geom, b->rod->sphere_xyz + 3 * i, n) > b->reach) return;
+  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->sphere_xyz + 3 * i);
+  if (distance > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;
     return;
   }
   l->geom_pairs[2 * l->geom_count] = b->geom;
   l->geom_pairs[2 * l->geom_count + 1] = i;
+  l->geom_distance[l->geom_count] = distance;
   ++l->geom_count;
 }
 
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
 
-// The self pairs: a grid pass over segment boxes inflated by half the margin,
-// sized to the longest segment. Returns 0 if the list overflowed (the caller
-// then evaluates without lists).
+// Every segment pair beyond the neighbours, in order: a bounding-sphere test
+// over contiguous arrays (vectorised), then the exact distance. For chains up
+// to DIRECT_BUILD_SPHERES this costs a fraction of a grid pass, whose cells at
+// the pair reach hold dozens of segments in a pile.
+// Midpoint and half length of every segment into the lists' segment array.
+static void update_segments(vsc_rod* rod) {
+  const double* x = rod->sphere_xyz;
+  for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a) {
+    double* out = rod->lists->segment + 4 * a;
+    double length2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
+      length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
+    }
+    out[3] = 0.5 * sqrt(length2);
+  }
+}
+
+static void build_self_direct(vsc_rod* rod, build* b) {
+  vsc_contact_lists* l = rod->lists;
+  update_segments(rod);
+  int segments = rod->def.collision_sphere_count - 1;
+  double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->def.radius;
+  const double* seg = l->segment;  // midpoints and half lengths, current
+  double* mx = l->build_scratch;
+  double* my = mx + segments;
+  double* mz = my + segments;
+  double* half = mz + segments;
+  double* excess = half + segments;  // per segment: squared distance less squared reach
+  for (int a = 0; a < segments; ++a) {
+    mx[a] = seg[4 * a];
+    my[a] = seg[4 * a + 1];
+    mz[a] = seg[4 * a + 2];
+    half[a] = seg[4 * a + 3] + 0.5 * limit;
+  }
+  for (int a = 0; a < segments && !b->overflow; ++a) {
+    int first = a + rod->self_gap;
+    double x = mx[a], y = my[a], z = mz[a], ha = half[a];
+    for (int c = first; c < segments; ++c) {  // |m_a - m_c| <= 2r + m + half lengths
+      double dx = mx[c] - x, dy = my[c] - y, dz = mz[c] - z, r = ha + half[c];
+      excess[c] = dx * dx + dy * dy + dz * dz - r * r;
+    }
+    for (int c = first; c < segments; ++c)
+      if (excess[c] <= 0.0) keep_self(b, a, c);
+  }
+}
+
+// The self pairs: segments within 2r + m, with their distances. Returns 0 if
+// the list overflowed (the caller then evaluates without lists).
 static int build_self(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
   l->self_count = 0;
-  double longest = 0.0;
-  for (int k = 0; k + 1 < spheres; ++k)
-    for (int a = 0; a < 3; ++a)
-      longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
-  vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
-  for (int k = 0; k + 1 < spheres; ++k) {
-    const double* x0 = rod->sphere_xyz + 3 * k;
-    const double* x1 = x0 + 3;
-    double lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = fmin(x0[a], x1[a]) - inflated;
-      hi[a] = fmax(x0[a], x1[a]) + inflated;
+  if (spheres <= DIRECT_BUILD_SPHERES) {
+    build_self_direct(rod, &b);
+  } else {  // a grid pass over segment boxes inflated by half the margin, sized to the longest segment
+    double longest = 0.0;
+    for (int k = 0; k + 1 < spheres; ++k)
+      for (int a = 0; a < 3; ++a)
+        longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
+    vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+    for (int k = 0; k + 1 < spheres; ++k) {
+      const double* x0 = rod->sphere_xyz + 3 * k;
+      const double* x1 = x0 + 3;
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = fmin(x0[a], x1[a]) - inflated;
+        hi[a] = fmax(x0[a], x1[a]) + inflated;
+      }
+      vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
     }
-    vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+    sort_pairs(l->self_pairs, l->self_count);
+    for (int k = 0; k < l->self_count; ++k) {  // the distances, in the sorted order
+      double s, t, d[3];
+      l->self_distance[k] = segment_gap(rod->sphere_xyz, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
+    }
   }
-  sort_pairs(l->self_pairs, l->self_count);
   memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   l->self_built = !b.overflow;
   return l->self_built;
 }
 
-// The (geom, sphere) pairs: a grid pass over sphere boxes, then a query per
-// geom. Built apart from the self pairs, so a tool moving through a resting
-// bowel costs only this. Returns 0 if the list overflowed.
+// The (geom, sphere) pairs: for a few hundred spheres, each geom against every
+// sphere in its box (no hashing); else a grid pass over sphere boxes, then a
+// query per geom. Built apart from the self pairs, so a tool moving through a
+// resting bowel costs only this. Returns 0 if the list overflowed.
 static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
@@ -405,7 +499,8 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   build b = {rod, world, -1, r + margin, 0};
   l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-  vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
+  int direct = spheres <= DIRECT_BUILD_SPHERES;
+  if (!direct) vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
   for (int i = 0; i < spheres; ++i) {
     const double* x = rod->sphere_xyz + 3 * i;
     double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
@@ -414,7 +509,7 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
       rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
       rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
     }
-    vsc_grid_insert(rod->grid, i, lo, hi, no_pair, &b);
+    if (!direct) vsc_grid_insert(rod->grid, i, lo, hi, no_pair, &b);
   }
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
@@ -426,15 +521,30 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
         lo[a] = fmax(geom->box[a] - 0.5 * margin, rod_box[a]);
         hi[a] = fmin(geom->box[3 + a] + 0.5 * margin, rod_box[3 + a]);
       }
-      visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, collect_geom, &b);
+      if (direct) {  // the spheres whose boxes overlap the geom's, in order
+        visited = 0;
+        if (lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])
+          for (int i = 0; i < spheres; ++i) {
+            const double* x = rod->sphere_xyz + 3 * i;
+            if (x[0] + inflated >= lo[0] && x[0] - inflated <= hi[0] && x[1] + inflated >= lo[1] &&
+                x[1] - inflated <= hi[1] && x[2] + inflated >= lo[2] && x[2] - inflated <= hi[2])
+              collect_geom(&b, i);
+          }
+      } else {
+        visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, collect_geom, &b);
+      }
     }
     if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
       for (int i = 0; i < spheres; ++i) collect_geom(&b, i);
-    sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
+    if (!direct) {  // grid order: sort, then the distances in that order
+      sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
+      for (int k = first; k < l->geom_count; ++k)
+        l->geom_distance[k] = filter_distance(geom, rod->sphere_xyz + 3 * l->geom_pairs[2 * k + 1]);
+    }
   }
   memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
-    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 12 * (size_t)world->geom_count);
+    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 13 * (size_t)world->geom_count);
     if (!poses) return 0;
     l->geom_pose = poses;
     l->built_geom_capacity = world->geom_count;
@@ -449,46 +559,63 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   return l->geoms_built;
 }
 
-// 1 while no sphere moved by half the margin from `snapshot` (3 per sphere).
-static int spheres_stayed(const vsc_rod* rod, const double* snapshot) {
-  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius, half2 = half * half;
-  for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
-    const double* x = rod->sphere_xyz + 3 * i;
-    const double* x0 = snapshot + 3 * i;
-    double dx = x[0] - x0[0], dy = x[1] - x0[1], dz = x[2] - x0[2];
-    if (!(dx * dx + dy * dy + dz * dz <= half2)) return 0;
+// Distance each sphere moved from `snapshot` (3 per sphere) into `moved`;
+// returns 1 while none moved by more than half the margin.
+static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* moved) {
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
+  int spheres = rod->def.collision_sphere_count;
+  const double* x = rod->sphere_xyz;
+  double most = 0.0;
+  for (int i = 0; i < spheres; ++i) {
+    double dx = x[3 * i] - snapshot[3 * i], dy = x[3 * i + 1] - snapshot[3 * i + 1], dz = x[3 * i + 2] - snapshot[3 * i + 2];
+    moved[i] = sqrt(dx * dx + dy * dy + dz * dz);
   }
-  return 1;
+  for (int i = 0; i < spheres; ++i) most = moved[i] > most ? moved[i] : most;
+  return most <= half;  // NaN: never valid
 }
 
 // The self pairs still hold every possible self-contact while no sphere moved
 // by half the margin since they were built.
 static int self_valid(const vsc_rod* rod) {
-  return rod->lists->self_built && spheres_stayed(rod, rod->lists->sphere_xyz);
+  vsc_contact_lists* l = rod->lists;
+  if (!l->self_built || !sphere_moves(rod, l->sphere_xyz, l->moved)) return 0;
+  for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a)
+    l->segment_moved[a] = l->moved[a] > l->moved[a + 1] ? l->moved[a] : l->moved[a + 1];
+  return 1;
 }
 
 // The geom pairs still hold every possible contact while no sphere and no geom
-// moved by half the margin since they were built.
+// moved by half the margin since they were built. Writes each geom's surface
+// motion bound after the poses.
 static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
-  const vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->lists;
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
-  if (!spheres_stayed(rod, l->geom_sphere_xyz)) return 0;
+  if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
+    double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
     const double* pose = l->geom_pose + 12 * g;
     double moved = 0.0, turned = 0.0;
     for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
     for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
     if (geom->bound_radius > 0.0) {
       // no surface point moved more than |dp| + R ||dR||_F
-      if (!(sqrt(moved) + geom->bound_radius * sqrt(turned) <= half)) return 0;
+      shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned);
+      if (!(shift[g] <= half)) return 0;
     } else if (moved != 0.0 || turned != 0.0) {
       return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
+    } else {
+      shift[g] = 0.0;
     }
   }
   return 1;
 }
+
+// A pair whose distance at the build, less what its parts moved since (the
+// distance changes no faster than they move), still exceeds the contact
+// distance cannot touch: skip it. The relative slack covers rounding.
+#define SKIP_SLACK (1.0 + 1e-9)
 
 int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
   int spheres = rod->def.collision_sphere_count;
@@ -499,24 +626,14 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     touch[RIGID + T_NORMAL_FORCE] = touch[SELF + T_NORMAL_FORCE] = 0.0;
   }
   vsc_contact_lists* l = rod->lists;
-  p.segment = l->segment;
-  if (rod->def.self_collision) {
-    const double* x = rod->sphere_xyz;
-    for (int a = 0; a + 1 < spheres; ++a) {
-      double* out = l->segment + 4 * a;
-      double length2 = 0.0;
-      for (int c = 0; c < 3; ++c) {
-        out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
-        length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
-      }
-      out[3] = 0.5 * sqrt(length2);
-    }
-  }
-  int self_ok = !rod->def.self_collision || self_valid(rod) || build_self(rod, world);
-  int geoms_ok = geoms_valid(rod, world) || build_geoms(rod, world);
+  int self_fresh = 0, geoms_fresh = 0;
+  int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
+  int geoms_ok = geoms_valid(rod, world) || (geoms_fresh = 1, build_geoms(rod, world));
   if (!self_ok || !geoms_ok) {
     // a list overflowed (an extreme pile): this evaluation tests everything directly
     l->self_built = l->geoms_built = 0;
+    if (rod->def.self_collision) update_segments(rod);
+    p.segment = l->segment;
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
       for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(&p, a, b);
     for (int g = 0; g < world->geom_count; ++g) {
@@ -525,11 +642,29 @@ int vsc_rod_contact_forces(vsc_rod* rod, const vsc_world* world, double* Q) {
     }
     return p.contacts;
   }
-  for (int k = 0; k < l->self_count && rod->def.self_collision; ++k)
-    self_pair(&p, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+  if (rod->def.self_collision) {
+    // just built: nothing moved since
+    if (self_fresh) memset(l->segment_moved, 0, sizeof(double) * (size_t)spheres);
+    double contact = 2.0 * rod->def.radius * SKIP_SLACK;
+    const double* moved = l->segment_moved;
+    for (int k = 0; k < l->self_count; ++k) {
+      int a = l->self_pairs[2 * k], b = l->self_pairs[2 * k + 1];
+      if (l->self_distance[k] - moved[a] - moved[b] > contact) continue;
+      self_pair(&p, a, b);
+    }
+  }
+  if (l->geom_count == 0) return p.contacts;
+  const double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
+  if (geoms_fresh) {  // just built: nothing moved since
+    memset(l->geom_moved, 0, sizeof(double) * (size_t)spheres);
+    memset(l->geom_pose + 12 * (size_t)l->built_geom_capacity, 0, sizeof(double) * (size_t)world->geom_count);
+  }
+  double contact = rod->def.radius * SKIP_SLACK;
   for (int k = 0; k < l->geom_count; ++k) {
-    p.geom = l->geom_pairs[2 * k];
-    sphere_geom(&p, l->geom_pairs[2 * k + 1]);
+    int g = l->geom_pairs[2 * k], i = l->geom_pairs[2 * k + 1];
+    if (l->geom_distance[k] - l->geom_moved[i] - shift[g] > contact) continue;
+    p.geom = g;
+    sphere_geom(&p, i);
   }
   return p.contacts;
 }

@@ -184,7 +184,7 @@ static vsc_status substep(vsc_integrator integrator, vsc_rod* rod, vsc_world* wo
 
 static double mechanical_energy(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
                                 double* kinetic_elastic) {
-  *kinetic_elastic = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
+  *kinetic_elastic = vsc_rod_active_energy(rod, q, v);
   return *kinetic_elastic + vsc_rod_gravity_energy(rod, world->gravity, q);
 }
 

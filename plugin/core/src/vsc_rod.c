@@ -103,6 +103,10 @@ static void assemble_mass(vsc_rod* rod) {
       if (j != i) rod->mass_row_sum[j] += a;
     }
   }
+  if (!rod->def.lumped_mass) return;
+  // lumped: each row's sum on the diagonal (same total mass and gravity forces)
+  memset(rod->mass_band, 0, sizeof(double) * 4 * n);
+  for (int k = 0; k < n; ++k) rod->mass_band[4 * k + 3] = rod->mass_row_sum[k];
 }
 
 // The pinned points' accelerations are zero: solving the principal submatrix of
@@ -152,7 +156,7 @@ double vsc_rod_memory_bytes(const vsc_rod_def* def) {
   double tethers = def->mesentery_points > 0 ? def->mesentery_points : 1;
   double per_sample = sizeof(vsc_basis) + 10.0 * sizeof(double) + 27.0 * sizeof(double);
   double per_point = 9.0 * sizeof(double) + 1.0 + 3.0 * sizeof(int) + (4.0 * S + 1.0) * sizeof(double) +
-                     24.0 * sizeof(double) + 6.0 * sizeof(double) +
+                     24.0 * sizeof(double) + 12.0 * sizeof(double) +
                      3.0 * (jacobian_half_width_bound(def->samples_per_segment) + 1.0) * sizeof(double);
   double per_sphere = sizeof(vsc_basis) + 6.0 * sizeof(double) + (VSC_STICK_SIZE + VSC_TOUCH_SIZE) * sizeof(double);
   double bytes = sizeof(vsc_rod) + N * per_sample + n * per_point + spheres * per_sphere +
@@ -199,7 +203,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
   rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
   rod->sample_hessian = (double*)malloc(sizeof(double) * 27 * (size_t)N);
-  rod->backup = (double*)malloc(sizeof(double) * (6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
+  rod->backup = (double*)malloc(sizeof(double) * (12 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
   rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
   rod->tether_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * (size_t)(def->mesentery_points > 0 ? def->mesentery_points : 1));
   vsc_grid_create(spheres, &rod->grid);
@@ -221,6 +225,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
     rod->is_pinned[def->pinned[i]] = 1;
   }
   rod->def.pinned = rod->pinned;
+  rod->energy_state = rod->backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
   for (int i = 0; i < spheres; ++i)
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
@@ -311,24 +316,26 @@ void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
 // them) into edge_*; returns the sum of their lengths (m).
 static double spring_edges(vsc_rod* rod, int gap) {
   int count = rod->sample_count - gap;
-  const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
-  double *ex = rod->edge_x, *ey = rod->edge_y, *ez = rod->edge_z, *el = rod->edge_length;
-  double total = 0.0;
+  // distinct blocks of rod->scratch (restrict: the loop vectorises)
+  const double *restrict x = rod->sample_x, *restrict y = rod->sample_y, *restrict z = rod->sample_z;
+  double *restrict ex = rod->edge_x, *restrict ey = rod->edge_y, *restrict ez = rod->edge_z;
+  double *restrict el = rod->edge_length;
   for (int a = 0; a < count; ++a) {
     ex[a] = x[a + gap] - x[a];
     ey[a] = y[a + gap] - y[a];
     ez[a] = z[a + gap] - z[a];
     el[a] = sqrt(ex[a] * ex[a] + ey[a] * ey[a] + ez[a] * ez[a]);
-    total += el[a];
   }
+  double total = 0.0;  // apart and in order: an ordered sum does not vectorise
+  for (int a = 0; a < count; ++a) total += el[a];
   return total;
 }
 
 // Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
 // (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
 static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
-  double *ex = rod->edge_x, *ey = rod->edge_y, *ez = rod->edge_z;
-  const double* el = rod->edge_length;
+  double *restrict ex = rod->edge_x, *restrict ey = rod->edge_y, *restrict ez = rod->edge_z;
+  const double* restrict el = rod->edge_length;
   for (int a = 0; a < count; ++a) {
     double scale = (k * (el[a] - rest) + extra) / (el[a] + 1e-300);
     ex[a] *= scale;
@@ -338,17 +345,46 @@ static void spring_tensions(vsc_rod* rod, int count, double k, double rest, doub
 }
 
 // f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
-// and its last one back.
-static void add_spring_forces(vsc_rod* rod, int gap) {
+// and its last one back. `first`: f starts from zero, written here (no
+// clearing pass). Each element sums in the same order as two separate passes
+// would: (f_a + t_a) - t_{a-gap}, with f_a = 0.0 when first.
+static void add_spring_forces(vsc_rod* rod, int gap, int first) {
   int N = rod->sample_count, count = N - gap;
-  const double *tx = rod->edge_x, *ty = rod->edge_y, *tz = rod->edge_z;
-  double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
-  for (int a = 0; a < count; ++a) {
+  // distinct blocks of rod->scratch (restrict: the loops vectorise)
+  const double *restrict tx = rod->edge_x, *restrict ty = rod->edge_y, *restrict tz = rod->edge_z;
+  double *restrict fx = rod->force_x, *restrict fy = rod->force_y, *restrict fz = rod->force_z;
+  int low = gap < count ? gap : count, high = gap > count ? gap : count;
+  // [0, low): + only; [gap, count): both; [count, gap): neither; [high, N): - only
+  if (first) {
+    for (int a = 0; a < low; ++a) {
+      fx[a] = 0.0 + tx[a];
+      fy[a] = 0.0 + ty[a];
+      fz[a] = 0.0 + tz[a];
+    }
+    for (int a = gap; a < count; ++a) {
+      fx[a] = (0.0 + tx[a]) - tx[a - gap];
+      fy[a] = (0.0 + ty[a]) - ty[a - gap];
+      fz[a] = (0.0 + tz[a]) - tz[a - gap];
+    }
+    for (int a = count; a < gap; ++a) fx[a] = fy[a] = fz[a] = 0.0;
+    for (int a = high; a < N; ++a) {
+      fx[a] = 0.0 - tx[a - gap];
+      fy[a] = 0.0 - ty[a - gap];
+      fz[a] = 0.0 - tz[a - gap];
+    }
+    return;
+  }
+  for (int a = 0; a < low; ++a) {
     fx[a] += tx[a];
     fy[a] += ty[a];
     fz[a] += tz[a];
   }
-  for (int a = gap; a < N; ++a) {
+  for (int a = gap; a < count; ++a) {
+    fx[a] = (fx[a] + tx[a]) - tx[a - gap];
+    fy[a] = (fy[a] + ty[a]) - ty[a - gap];
+    fz[a] = (fz[a] + tz[a]) - tz[a - gap];
+  }
+  for (int a = high; a < N; ++a) {
     fx[a] -= tx[a - gap];
     fy[a] -= ty[a - gap];
     fz[a] -= tz[a - gap];
@@ -416,19 +452,16 @@ static double curvature_bending(vsc_rod* rod, int forces) {
 
 static void elastic_sample_forces(vsc_rod* rod) {
   int N = rod->sample_count;
-  memset(rod->force_x, 0, sizeof(double) * N);
-  memset(rod->force_y, 0, sizeof(double) * N);
-  memset(rod->force_z, 0, sizeof(double) * N);
   // stretch springs and the global term: dE_g/dl = K_g (l - length) is a
   // tension shared by every stretch spring
   double length = spring_edges(rod, 1);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
   spring_tensions(rod, N - 1, rod->stretch_spring, rod->rest_spacing, global_tension);
-  add_spring_forces(rod, 1);
+  add_spring_forces(rod, 1, 1);  // clears the forces first
   if (rod->bend_spring > 0.0 && N > 2) {
     spring_edges(rod, 2);
     spring_tensions(rod, N - 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
-    add_spring_forces(rod, 2);
+    add_spring_forces(rod, 2, 0);
   }
   curvature_bending(rod, 1);
 }
@@ -532,6 +565,19 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
     }
   }
   return e;
+}
+
+double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
+  size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
+  double* known_q = rod->energy_state;
+  double* known_v = known_q + 3 * rod->n;
+  if (rod->energy_known && memcmp(known_q, q, bytes) == 0 && memcmp(known_v, v, bytes) == 0)
+    return rod->energy_active;  // the step's end, now the next step's start
+  rod->energy_active = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
+  memcpy(known_q, q, bytes);
+  memcpy(known_v, v, bytes);
+  rod->energy_known = 1;
+  return rod->energy_active;
 }
 
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {

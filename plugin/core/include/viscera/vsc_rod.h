@@ -53,6 +53,8 @@ typedef struct vsc_rod_def {
   double global_stretch_stiffness;   ///< global length stiffness K_g (N/m, >= 0)
   double bending_rigidity;           ///< EI of the curvature bending energy (N m^2, >= 0; 0: none)
   double damping;                    ///< mass-proportional viscous damping (1/s, >= 0)
+  int lumped_mass;                   ///< 1: M lumped, sum_j M_kj on the diagonal (same total mass and
+                                     ///< gravity, a stable step about 1.4x longer); 0: consistent M
   double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
   double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
@@ -140,7 +142,11 @@ typedef struct vsc_rod {
   double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
   double* system;            ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
   double* factor_row;        ///< factorisation scratch (jacobian_half_width + 1)
-  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state
+  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state,
+                             ///< then energy_state
+  double* energy_state;      ///< q, v (3n each) at which energy_active was computed
+  double energy_active;      ///< kinetic + elastic energy at energy_state (J)
+  int energy_known;          ///< 1 once energy_state holds a state
   vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
   vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
   int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
@@ -189,6 +195,10 @@ void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q,
 
 /// Elastic energy E (J): springs, global stretch and mesentery tethers.
 double vsc_rod_elastic_energy(vsc_rod* rod, const double* q);
+
+/// Kinetic + elastic energy (J). Remembers the last state it was asked about,
+/// so the energy at one step's end is not computed again at the next step's start.
+double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v);
 
 /// Gravitational potential energy (J), zero at the origin.
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q);
