@@ -35,13 +35,23 @@ def register() -> None:
 
 
 class _RegisterAfterImport(importlib.abc.MetaPathFinder):
-    """Finds gymnasium's own spec and makes its loader call register() once gymnasium has run."""
+    """Finds gymnasium's own spec and makes its loader call register() once gymnasium has run.
+
+    It stays on sys.meta_path until then: a mere lookup (importlib.util.find_spec, as
+    "is it installed" checks do) executes nothing, and the import that follows must
+    still be caught.
+    """
 
     def find_spec(self, fullname, path=None, target=None):
         if fullname != "gymnasium":
             return None
-        sys.meta_path.remove(self)  # one shot; also keeps the lookup below from finding us again
-        spec = importlib.util.find_spec("gymnasium")
+        spec = None
+        for finder in sys.meta_path:  # the others, in order: what the import would find without us
+            find = getattr(finder, "find_spec", None)
+            if finder is not self and find is not None:
+                spec = find(fullname, path, target)
+                if spec is not None:
+                    break
         if spec is None or spec.loader is None:
             return spec  # not installed: the import fails as it would without viscera
         loader = spec.loader
@@ -49,6 +59,8 @@ class _RegisterAfterImport(importlib.abc.MetaPathFinder):
 
         def exec_then_register(module):
             exec_module(module)
+            if self in sys.meta_path:
+                sys.meta_path.remove(self)
             register()
 
         # on this one loader instance only: spec.loader stays gymnasium's own (resources, reload)

@@ -14,6 +14,9 @@ def run_python(code: str) -> subprocess.CompletedProcess:
 
 
 @pytest.mark.parametrize("imports", ["import viscera; import gymnasium as gym",
+                                     # an "is it installed" lookup first must not use up the registration
+                                     "import viscera, importlib.util; importlib.util.find_spec('gymnasium'); "
+                                     "import gymnasium as gym",
                                      "import gymnasium as gym; import viscera",
                                      "import gymnasium as gym; import viscera; gym.register_envs(viscera)"])
 def test_ids_are_registered_by_importing_viscera(imports):
