@@ -209,7 +209,7 @@ def plot_scaling(scaling: dict, path: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--duration", type=cli.positive_float, default=5.0,
+    parser.add_argument("--duration", type=cli.duration, default=5.0,
                         help="simulated seconds per run (default 5)")
     parser.add_argument("--runs", type=cli.positive_int, default=3, help="runs per peer, median reported (default 3)")
     parser.add_argument("--json", type=cli.output_file(".json"), help="also write the figures to this JSON file")

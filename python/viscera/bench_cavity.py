@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.bench_cavity", description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=cli.positive_int, default=5,
                         help="replays per variant, medians reported (default 5)")
-    parser.add_argument("--duration", type=cli.positive_float, default=20.0,
+    parser.add_argument("--duration", type=cli.duration, default=20.0,
                         help="length of each load (simulated s, default 20)")
     parser.add_argument("--loads", nargs="+", choices=LOADS, default=list(LOADS),
                         help="loads to replay (default: both)")

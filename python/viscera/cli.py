@@ -87,6 +87,26 @@ def positive_float(text: str) -> float:
     return value
 
 
+def positive_float_up_to(limit: float, unit: str, minimum: float = 0.0) -> Callable[[str], float]:
+    """argparse type: a finite number in (0, limit], and at least `minimum`; the bounds keep
+    step counts finite (--duration 1e308, --record-fps 1e-308 would overflow them)."""
+
+    def check(text: str) -> float:
+        value = positive_float(text)
+        if value > limit:
+            raise argparse.ArgumentTypeError(f"must be at most {limit:g} {unit}, got {text!r}")
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum:g} {unit}, got {text!r}")
+        return value
+
+    check.__name__ = f"number of {unit}"
+    return check
+
+
+MAX_DURATION_S = 1e6  # simulated seconds: 11.6 days, beyond any run a person waits for
+duration = positive_float_up_to(MAX_DURATION_S, "s")
+
+
 def positive_int(text: str) -> int:
     """argparse type: an integer >= 1."""
     value = _number(int, text)

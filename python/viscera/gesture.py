@@ -221,7 +221,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=cli.natural_int, default=0,
                         help="the task's seed (default 0; clear_area starts every episode from the same scene, "
                         "so today the gesture is the same for every seed)")
-    parser.add_argument("--duration", type=cli.positive_float, default=20.0,
+    parser.add_argument("--duration", type=cli.duration, default=20.0,
                         help="episode length (simulated s, default 20)")
     parser.add_argument("--png-before", type=cli.output_file(".png"),
                         help="picture of the cavity at the start (top camera)")

@@ -88,7 +88,10 @@ def settle(scene: pathlib.Path, duration: float, quiet: bool = False) -> np.ndar
     text = scene.read_text()
     probe = mujoco.MjModel.from_xml_string(_with_shape(text, "line", None))
     gut = viscera.intestine(probe)
-    path = initial_path(gut.rest_length, gut.radius)
+    try:
+        path = initial_path(gut.rest_length, gut.radius)
+    except ValueError as error:  # an intestine too long for this cavity: the user's scene, found before stepping
+        raise cli.UserError(f"{scene}: {error}") from error
     model = mujoco.MjModel.from_xml_string(_with_shape(text, "polyline", path))
     data = mujoco.MjData(model)
     gut = viscera.intestine(model)
@@ -125,7 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="where to write the scene with the settled shape (may be --scene itself)")
     parser.add_argument("--scene", type=pathlib.Path, default=SCENE,
                         help=f"scene to settle (default: {SCENE}, from the repository root)")
-    parser.add_argument("--duration", type=cli.positive_float, default=DURATION,
+    parser.add_argument("--duration", type=cli.duration, default=DURATION,
                         help=f"settling time (simulated s, default {DURATION:g}: the shipped scene's)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")

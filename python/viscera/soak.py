@@ -193,7 +193,7 @@ def plot(result: dict, path: pathlib.Path) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.soak", description=__doc__.split("\n")[0])
-    parser.add_argument("--minutes", type=cli.positive_float, default=30.0, help="simulated minutes (default 30)")
+    parser.add_argument("--minutes", type=cli.positive_float_up_to(cli.MAX_DURATION_S / 60, "min"), default=30.0, help="simulated minutes (default 30)")
     parser.add_argument("--seed", type=cli.natural_int, default=0, help="seed of the random tool motion (default 0)")
     parser.add_argument("--out", type=pathlib.Path, default=OUT_DIR, help="where results.json and soak.png go")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
