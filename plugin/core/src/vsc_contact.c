@@ -57,13 +57,13 @@ static inline double push_share(double depth, double radius, double separation) 
 static double contact_force(const vsc_rod* rod, double depth, const double n[3], const double relative[3],
                             double mu, const double* elongation, double f[3], double tangent[3]) {
   double k = rod->def.contact_stiffness, c = rod->def.contact_damping;
-  double approach = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
+  double separation = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
   double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
-  double normal = push_share(depth, rod->def.radius, approach) * k * spring - c * approach;
+  double normal = push_share(depth, rod->def.radius, separation) * k * spring - c * separation;
   if (!(normal > 0.0)) return 0.0;  // penalty contacts push, never pull
   double ft[3];
   for (int a = 0; a < 3; ++a) {
-    tangent[a] = relative[a] - approach * n[a];
+    tangent[a] = relative[a] - separation * n[a];
     ft[a] = -c * tangent[a];
   }
   if (elongation) {

@@ -252,9 +252,12 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
     double active, energy = mechanical_energy(rod, world, q, v, &active);
     if (isfinite(energy) && energy - start_energy <= allowed) return VSC_OK;
     if (!contacts || !isfinite(energy)) continue;
-    double end_contact = vsc_rod_contact_energy(rod, world, q, NULL);
+    // start first, end last: the rod's spheres and contact lists are left at the accepted q
     if (start_contact < 0.0) start_contact = vsc_rod_contact_energy(rod, world, start_q, NULL);
+    double end_contact = vsc_rod_contact_energy(rod, world, q, NULL);
     double jump = energy + end_contact - (start_energy + start_contact);
+    // the allowance grows with the stored contact energy: an embedded rod may release it,
+    // but no more than that (a blow-up from deep contact still trips the guard)
     if (jump <= o.energy_jump_ratio * (start_active + start_contact) + slack) return VSC_OK;
   }
   memcpy(q, start_q, sizeof(double) * size);
