@@ -142,6 +142,32 @@ VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, int rings_per_
   return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
 }
 
+// The rod of intestine `instance` as the plugin builds it, with its initial control
+// points (m, 3n, owned by the caller like the rod and the config: release them with
+// release_initial_rod). Returns 0, or -1 with nothing left to release.
+static int create_initial_rod(const mjModel* m, int instance, vsc_plugin_config* config, double** initial_q,
+                              vsc_rod** rod) {
+  char error[256];
+  *initial_q = NULL;
+  *rod = NULL;
+  if (read_intestine(m, instance, config)) return -1;
+  *initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)config->rod.control_count);
+  if (*initial_q && vsc_plugin_config_layout(config, *initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_plugin_config_clamp(config, *initial_q, error, (int)sizeof(error)) == 0 &&
+      vsc_rod_create(&config->rod, rod) == VSC_OK) {
+    return 0;
+  }
+  free(*initial_q);
+  vsc_plugin_config_free(config);
+  return -1;
+}
+
+static void release_initial_rod(vsc_plugin_config* config, double* initial_q, vsc_rod* rod) {
+  vsc_rod_destroy(rod);
+  free(initial_q);
+  vsc_plugin_config_free(config);
+}
+
 /// Energies of intestine `instance` at control points q (m, 3n) and velocities
 /// v (m/s, 3n) under `gravity` (m/s^2): out = {elastic, gravitational (zero at
 /// the origin), kinetic} (J). Builds the rod it measures with (O(n)): for
@@ -149,23 +175,14 @@ VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, int rings_per_
 VSC_EXPORT int viscera_intestine_energy(const mjModel* m, int instance, const double* q, const double* v,
                                         const double gravity[3], double out[3]) {
   vsc_plugin_config config;
-  char error[256];
-  if (read_intestine(m, instance, &config)) return -1;
-  int n = config.rod.control_count, status = -1;
-  double* initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
-  vsc_rod* rod = NULL;
-  if (initial_q && vsc_plugin_config_layout(&config, initial_q, error, (int)sizeof(error)) == 0 &&
-      vsc_plugin_config_clamp(&config, initial_q, error, (int)sizeof(error)) == 0 &&
-      vsc_rod_create(&config.rod, &rod) == VSC_OK) {
-    out[0] = vsc_rod_elastic_energy(rod, q);
-    out[1] = vsc_rod_gravity_energy(rod, gravity, q);
-    out[2] = vsc_rod_kinetic_energy(rod, v);
-    status = 0;
-  }
-  vsc_rod_destroy(rod);
-  free(initial_q);
-  vsc_plugin_config_free(&config);
-  return status;
+  double* initial_q;
+  vsc_rod* rod;
+  if (create_initial_rod(m, instance, &config, &initial_q, &rod)) return -1;
+  out[0] = vsc_rod_elastic_energy(rod, q);
+  out[1] = vsc_rod_gravity_energy(rod, gravity, q);
+  out[2] = vsc_rod_kinetic_energy(rod, v);
+  release_initial_rod(&config, initial_q, rod);
+  return 0;
 }
 
 /// Stability of intestine `instance` at its initial shape: out = {highest
@@ -174,21 +191,12 @@ VSC_EXPORT int viscera_intestine_energy(const mjModel* m, int instance, const do
 /// 'substeps' if given, else vsc_stable_substeps)}. Returns 0, or -1.
 VSC_EXPORT int viscera_intestine_stability(const mjModel* m, int instance, double out[3]) {
   vsc_plugin_config config;
-  char error[256];
-  if (read_intestine(m, instance, &config)) return -1;
-  int n = config.rod.control_count, status = -1;
-  double* initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
-  vsc_rod* rod = NULL;
-  if (initial_q && vsc_plugin_config_layout(&config, initial_q, error, (int)sizeof(error)) == 0 &&
-      vsc_plugin_config_clamp(&config, initial_q, error, (int)sizeof(error)) == 0 &&
-      vsc_rod_create(&config.rod, &rod) == VSC_OK) {
-    vsc_rod_frequencies(rod, initial_q, &out[0], &out[1]);
-    out[2] = config.auto_substeps ? vsc_stable_substeps(config.step.integrator, out[0], out[1], m->opt.timestep)
-                                  : config.step.substeps;
-    status = 0;
-  }
-  vsc_rod_destroy(rod);
-  free(initial_q);
-  vsc_plugin_config_free(&config);
-  return status;
+  double* initial_q;
+  vsc_rod* rod;
+  if (create_initial_rod(m, instance, &config, &initial_q, &rod)) return -1;
+  vsc_rod_frequencies(rod, initial_q, &out[0], &out[1]);
+  out[2] = config.auto_substeps ? vsc_stable_substeps(config.step.integrator, out[0], out[1], m->opt.timestep)
+                                : config.step.substeps;
+  release_initial_rod(&config, initial_q, rod);
+  return 0;
 }
