@@ -78,18 +78,25 @@ def run(scene: str, duration: float, png: str | None = None, camera: str | None 
     if steps < 1:
         raise UserError(f"--duration {duration:g}: shorter than the scene's timestep ({model.opt.timestep:g} s)",
                         status=2)
+    if record and record_fps > 1.0 / model.opt.timestep:
+        raise UserError(f"--record-fps {record_fps:g}: more than the scene's {1.0 / model.opt.timestep:g} steps "
+                        f"per simulated second (timestep {model.opt.timestep:g} s)", status=2)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     renderer = view = None
     try:
         renderer = _renderer(model) if png else None  # a missing GL shows now, not after the run
         if viewer == "meshcat" or record:
-            check_host(host)
             from viscera.viewer import MeshcatViewer
-            view = MeshcatViewer(model, host=host, camera=camera_index)
-            print(f"meshcat viewer: {view.url}", flush=True)
-        wall = _simulate(model, data, steps, view, live=viewer == "meshcat", record=bool(record),
-                         record_fps=record_fps, quiet=quiet, desc=os.path.basename(scene))
+            if viewer == "meshcat":
+                check_host(host)
+                view = MeshcatViewer(model, host=host, camera=camera_index)
+                print(f"meshcat viewer: {view.url}", flush=True)
+            else:  # a recording alone needs no server
+                view = MeshcatViewer(model, camera=camera_index, serve=False)
+        record_every = max(1, int(round(1.0 / (record_fps * model.opt.timestep))))
+        wall = _simulate(model, data, steps, view, live=viewer == "meshcat", record_every=record_every if record else 0,
+                         quiet=quiet, desc=os.path.basename(scene))
         summary = {"scene": scene, "simulated_s": data.time, "wall_s": wall,
                    "real_time_factor": data.time / wall if wall > 0 else float("inf"), "intestines": []}
         for gut in viscera.intestines(model):
@@ -102,17 +109,22 @@ def run(scene: str, duration: float, png: str | None = None, camera: str | None 
             _render_png(renderer, model, data, png, camera_index)
             summary["png"] = png
         if record:
-            summary["recording_bytes"] = view.save(record, fps=record_fps)
+            # played at the rate it was recorded at: whole steps apart, not always `record_fps`
+            summary["recording_bytes"] = view.save(record, fps=1.0 / (record_every * model.opt.timestep))
             summary["recording"] = record
             summary["recording_frames"] = len(view.frames)
         if report is not None:
             report(summary)
         if hold:
-            print(f"serving the final state at {view.url}; Ctrl-C to stop", flush=True)
             try:
+                if not view.serving:
+                    raise RuntimeError("the meshcat server stopped during the run: nothing to serve")
+                print(f"serving the final state at {view.url}; Ctrl-C to stop", flush=True)
                 view.hold()
             except KeyboardInterrupt:  # the way a hold ends: not an interrupted run
                 pass
+            except RuntimeError as error:  # the server died: the page is gone, say so
+                raise UserError(f"--hold: {error}") from error
     finally:
         if view is not None:
             view.close()
@@ -121,16 +133,18 @@ def run(scene: str, duration: float, png: str | None = None, camera: str | None 
     return summary
 
 
-def _simulate(model: mujoco.MjModel, data: mujoco.MjData, steps: int, view, live: bool, record: bool,
-              record_fps: float, quiet: bool, desc: str) -> float:
-    """Step `steps` times, showing and recording on `view`; return the wall time spent stepping (s)."""
+def _simulate(model: mujoco.MjModel, data: mujoco.MjData, steps: int, view, live: bool, record_every: int,
+              quiet: bool, desc: str) -> float:
+    """Step `steps` times, showing on `view` and recording every `record_every` steps (0: not at all; the
+    first and the final states always); return the wall time spent stepping (s)."""
     display_every = max(1, int(round(1.0 / (30.0 * model.opt.timestep))))
-    record_every = max(1, int(round(1.0 / (record_fps * model.opt.timestep))))
     chunk = display_every if live else max(1, steps // 200)
     wall_start = time.perf_counter()
     stepping = 0.0
     if view is not None:
         view.update(data)
+    if record_every:
+        view.record(data)
     with tqdm(total=steps, unit="step", disable=quiet, desc=desc) as bar:
         done = 0
         while done < steps:
@@ -139,7 +153,7 @@ def _simulate(model: mujoco.MjModel, data: mujoco.MjData, steps: int, view, live
             for _ in range(count):
                 mujoco.mj_step(model, data)
                 done += 1
-                if record and done % record_every == 0:
+                if record_every and (done % record_every == 0 or done == steps):
                     view.record(data)
             stepping += time.perf_counter() - tick
             bar.update(count)

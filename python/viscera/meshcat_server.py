@@ -132,6 +132,7 @@ class Server:
         self.tasks: set[asyncio.Task] = set()
         self.connections = 0
         self.commands = 0
+        self.dropped = 0  # malformed messages, not handled
         self.stopped = asyncio.Event()
         app = tornado.web.Application([
             (r"/static/(.*)", NoCacheStaticFiles, {"path": VIEWER_ROOT, "default_filename": "index.html"}),
@@ -161,12 +162,27 @@ class Server:
         raise OSError(f"no free port in {FIRST_PORT}-{FIRST_PORT + 999} on {host}")
 
     def _on_command(self, frames: list[bytes]) -> None:
-        identity, kind, *rest = frames
-        if kind == b"sync":  # everything sent before it is in the scene: say so, with the browser counts
-            status = {"browsers": len(self.browsers), "connections": self.connections, "commands": self.commands}
-            self.socket.send_multipart([identity, b"sync", rest[0], json.dumps(status).encode()])
+        """One message from a viewer: [identity, b"sync", token] or [identity, kind, path, property, data].
+
+        A malformed message is dropped, and so is one whose handling fails: an exception
+        escaping here would stop the stream, and the server with it, for good."""
+        try:
+            self._handle(frames)
+        except Exception:  # noqa: BLE001 - nobody reads stderr: drop the message, keep serving
+            self.dropped += 1
+
+    def _handle(self, frames: list[bytes]) -> None:
+        if len(frames) == 3 and frames[1] == b"sync":
+            # everything sent before it is in the scene: say so, with the browser counts
+            identity, _, token = frames
+            status = {"browsers": len(self.browsers), "connections": self.connections, "commands": self.commands,
+                      "dropped": self.dropped}
+            self.socket.send_multipart([identity, b"sync", token, json.dumps(status).encode()])
             return
-        path, prop, data = rest
+        if len(frames) != 5 or frames[1] == b"sync":
+            self.dropped += 1
+            return
+        _, kind, path, prop, data = frames
         self.commands += 1
         self.scene.add(kind, path, prop, data)
         for browser in self.browsers:

@@ -1,6 +1,6 @@
 """meshcat viewer: live, recorded (self-contained HTML), usable from Python.
 
-    viewer = MeshcatViewer(model)          # serves on 127.0.0.1 only
+    viewer = MeshcatViewer(model)          # serves on 127.0.0.1 only (serve=False: no server, record only)
     print(viewer.url)                      # open in a browser
     viewer.update(data)                    # after mj_step: geom poses and the intestine's skin
     viewer.record(data)                    # keep a frame for the recording
@@ -161,8 +161,35 @@ def _html(commands: dict[tuple[bytes, bytes, bytes], bytes]) -> str:
             f"}}\n{draw}</script></body></html>")
 
 
-class _Channel:
-    """meshcat's window (what `meshcat.Visualizer` sends through) over a one-way socket.
+class _Local:
+    """meshcat's window (what `meshcat.Visualizer` sends through) that only keeps the scene:
+    the latest command per (kind, path, property), in order, from which a page is written."""
+
+    web_url = None
+
+    def __init__(self, scene: Scene | None = None):
+        self.scene = scene if scene is not None else Scene(keep_deletes=False)
+
+    def send(self, command) -> None:
+        lowered = command.lower()
+        key = (lowered["type"].encode(), lowered["path"].encode(), lowered.get("property", "").encode())
+        self.keep(key, umsgpack.packb(lowered))
+
+    def keep(self, key: tuple[bytes, bytes, bytes], data: bytes) -> None:
+        self.scene.add(*key, data)
+
+    def sync(self, timeout: float) -> dict | None:
+        return None
+
+    def get_scene(self) -> str:
+        return _html(self.scene.commands)
+
+    def close(self) -> None:
+        pass
+
+
+class _Channel(_Local):
+    """A `_Local` window that also sends every command to the server over a one-way socket.
 
     `send` never waits for the server: a command the socket cannot take now stays in
     a backlog where a newer command for the same thing replaces it, and goes with the
@@ -170,8 +197,8 @@ class _Channel:
     """
 
     def __init__(self, zmq_url: str, web_url: str):
+        super().__init__()
         self.web_url = web_url
-        self.scene = Scene(keep_deletes=False)
         self.backlog = Scene(keep_deletes=True)
         self.context = zmq.Context()
         self.socket = self.context.socket(zmq.DEALER)
@@ -180,10 +207,7 @@ class _Channel:
         self.socket.connect(zmq_url)
         self._token = 0
 
-    def send(self, command) -> None:
-        lowered = command.lower()
-        key = (lowered["type"].encode(), lowered["path"].encode(), lowered.get("property", "").encode())
-        data = umsgpack.packb(lowered)
+    def keep(self, key: tuple[bytes, bytes, bytes], data: bytes) -> None:
         self.scene.add(*key, data)
         self.backlog.add(*key, data)
         self.push()
@@ -216,9 +240,6 @@ class _Channel:
             if answered == token:  # older answers belong to syncs that timed out
                 return json.loads(status)
         return None
-
-    def get_scene(self) -> str:
-        return _html(self.scene.commands)
 
     def close(self) -> None:
         self.socket.close(linger=0)
@@ -317,7 +338,8 @@ def camera_view(model: mujoco.MjModel, camera: int | str | None = None) -> tuple
 
 
 class MeshcatViewer:
-    """A meshcat view of a MuJoCo model with intestines, served on `host` only.
+    """A meshcat view of a MuJoCo model with intestines, served on `host` only
+    (`serve=False`: no server, for recordings alone; `url` is then None).
 
     The page opens framed on the scene: from `camera` (a MuJoCo camera name or id;
     default: the model's first camera, or a view that fits the scene), with that
@@ -336,10 +358,20 @@ class MeshcatViewer:
     """
 
     def __init__(self, model: mujoco.MjModel, host: str = "127.0.0.1", camera: int | str | None = None,
-                 record_rings_per_segment: int = 1, record_ring_points: int = 8, timeout: float = 30.0):
+                 record_rings_per_segment: int = 1, record_ring_points: int = 8, timeout: float = 30.0,
+                 serve: bool = True):
         self.model = model
         self.vis = None
+        self.url = None
+        self._server = None
         eye, target, fovy = camera_view(model, camera)  # a bad camera fails before a server starts
+        if not serve:  # a recorder: the scene is kept here only, for `save`; no process, no port
+            self._channel = _Local()
+            self._finalizer = weakref.finalize(self, lambda: None)
+            self.vis = meshcat.Visualizer(window=self._channel)
+            self._build(record_rings_per_segment, record_ring_points)
+            self._frame(eye, target, fovy)
+            return
         # a session of its own: Ctrl-C in the terminal goes to this process, which decides
         self._server = subprocess.Popen(
             [sys.executable, "-m", "viscera.meshcat_server", "--host", host, "--parent", str(os.getpid())],
@@ -454,13 +486,24 @@ class MeshcatViewer:
         """Keep the state of `data` as the next frame of the recording (a coarser skin)."""
         rings, points = self.record_resolution
         skins = {gut.name: viscera.skin(self.model, data, gut.instance, rings, points)[::2] for gut in self.intestines}
-        poses = {part: part_transform(data, part) for part in self._moving}
+        # the first frame places the parts that never move too (the page may never have had an update)
+        poses = {part: part_transform(data, part) for part in (self._moving if self.frames else self.parts)}
         self.frames.append((skins, poses))
 
     def save(self, path: str, fps: float = 10.0) -> int:
-        """Write the recording as a self-contained HTML page that plays it offline; returns its size in bytes."""
+        """Write the recording, played at `fps` frames per second, as a self-contained HTML page
+        that plays it offline; returns its size in bytes.
+
+        The page is built from a copy of the scene: the live view (and every browser on it) is
+        left as it is, so `hold` after `save` still shows the final state.
+        """
+        vis = meshcat.Visualizer(window=_Local(self._channel.scene.copy(keep_deletes=False)))
         animation = meshcat.animation.Animation(default_framerate=fps)
-        count = len(self.frames)
+        count, moving = len(self.frames), set(self._moving)
+        if count:  # the recording replaces the live skin; before it starts, the page shows its first frame
+            vis["intestines"].delete()
+            for (kind, index), transform in self.frames[0][1].items():
+                vis[kind][str(index)].set_transform(transform)
         # meshcat 0.3.2's viewer ignores boolean (visibility) tracks but plays transform
         # tracks: a frame's mesh waits 1 km below the scene and is in place on its frame
         # only, with keyframes a thousandth of a frame apart so that nothing slides
@@ -477,19 +520,20 @@ class MeshcatViewer:
                 shown[k + 1] = False
             keys = [(time_in_frames, home if on else away) for time_in_frames, on in sorted(shown.items())]
             for name, (vertices, triangles) in skins.items():
-                node = self.vis["recording"][name][str(k)]
+                node = vis["recording"][name][str(k)]
                 # a material object per frame: meshcat's page loads objects sharing one badly
                 node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material((*INTESTINE_RGB, 1.0)))
                 node.set_transform(home if k == 0 else away)
                 for time_in_frames, transform in keys:
-                    with animation.at_frame(self.vis, time_in_frames) as frame:
+                    with animation.at_frame(vis, time_in_frames) as frame:
                         frame["recording"][name][str(k)].set_transform(transform)
-            with animation.at_frame(self.vis, k) as frame:
+            with animation.at_frame(vis, k) as frame:
                 for (kind, index), transform in poses.items():
-                    frame[kind][str(index)].set_transform(transform)
-        self.vis["intestines"].delete()  # the recording replaces the live skin
-        self.vis.set_animation(animation, play=True, repetitions=1000)
-        html = self.vis.static_html()
+                    if (kind, index) in moving:
+                        frame[kind][str(index)].set_transform(transform)
+        if count > 1:
+            vis.set_animation(animation, play=True, repetitions=1000)
+        html = vis.static_html()
         with open(path, "w") as f:
             f.write(html)
         return len(html.encode())
@@ -498,16 +542,31 @@ class MeshcatViewer:
         """Wait up to `timeout` s until the server has everything sent so far.
 
         Returns the server's status (`browsers` connected now, `connections` since it
-        started, `commands` received), or None if it did not answer in time. Never
+        started, `commands` received, malformed messages `dropped`), or None if it did not answer in time. Never
         raises; updates do not need it: it is for scripts and tests that must know.
         """
         return self._channel.sync(timeout) if self._channel is not None else None
+
+    @property
+    def serving(self) -> bool:
+        """Whether the server is up (False without one: `serve=False`, closed, or died)."""
+        return self._server is not None and self.vis is not None and self._server.poll() is None
+
+    def _check_serving(self) -> None:
+        if self._server is None or self.vis is None:
+            raise RuntimeError("this viewer has no meshcat server (made with serve=False, or closed)")
+        if self._server.poll() is not None:
+            raise RuntimeError(f"the meshcat server stopped (exit status {self._server.returncode}): "
+                               "nothing is served any more")
 
     def hold(self, timeout: float | None = None) -> None:
         """Keep serving the last state until Ctrl-C or SIGTERM (or `timeout` s), then return.
 
         For a look at the final state after a run; `close()` after it (or use `with`).
+        RuntimeError if there is no server to hold: none, or it has stopped (before or
+        during the hold).
         """
+        self._check_serving()
         self.flush()
         previous = None
         if threading.current_thread() is threading.main_thread():
@@ -515,10 +574,11 @@ class MeshcatViewer:
         try:
             self._server.wait(timeout)
         except (KeyboardInterrupt, subprocess.TimeoutExpired):
-            pass
+            return
         finally:
             if previous is not None:
                 signal.signal(signal.SIGTERM, previous)
+        self._check_serving()  # the wait ended: the server died under us
 
     def close(self) -> None:
         """Stop the server and release its pipes and sockets (idempotent)."""

@@ -261,3 +261,68 @@ def test_peers_hint_names_the_projects_extra(monkeypatch):
     from viscera import peers
     monkeypatch.setattr(peers, "available", lambda peer: False)
     assert 'pip install ".[peers]"' in peers.run_peer("pyelastica", "cantilever", 4)["unsupported"]
+
+
+# --- run --record / --hold: the recording and the held page ---
+
+def _recorded_paths(page: pathlib.Path) -> list[str]:
+    """The paths a saved recording draws."""
+    import base64
+
+    import umsgpack
+    return [umsgpack.unpackb(base64.b64decode(b64))["path"] for b64 in re.findall(r'draw\("([A-Za-z0-9+/=]*)"\)',
+                                                                                   page.read_text())]
+
+
+def test_a_short_recording_has_the_first_and_final_states_and_no_server(tmp_path):
+    page = tmp_path / "short.html"
+    result = viscera("run", PLANE, "--duration", 0.05, "--quiet", "--record", page)
+    assert result.returncode == 0, result.stderr
+    assert "(2 frames," in result.stdout and "meshcat viewer" not in result.stdout  # a recording needs no server
+    paths = _recorded_paths(page)
+    assert {"/meshcat/recording/intestine/0", "/meshcat/recording/intestine/1"} <= set(paths)
+
+
+def test_a_recording_without_the_viewer_starts_no_process(tmp_path, monkeypatch):
+    from viscera.__main__ import run
+
+    def no_process(*args, **kwargs):
+        raise AssertionError(f"started {args}")
+
+    monkeypatch.setattr(subprocess, "Popen", no_process)
+    summary = run(str(PLANE), 0.01, quiet=True, record=str(tmp_path / "run.html"))
+    assert summary["recording_frames"] == 2
+
+
+def test_a_recording_plays_at_the_rate_it_was_recorded_at(tmp_path, monkeypatch):
+    from viscera.__main__ import run
+    from viscera.viewer import MeshcatViewer
+    rates = []
+    save = MeshcatViewer.save
+    monkeypatch.setattr(MeshcatViewer, "save", lambda self, path, fps: rates.append(fps) or save(self, path, fps))
+    summary = run(str(PLANE), 0.1, quiet=True, record=str(tmp_path / "run.html"), record_fps=300)
+    # 300 frames per s at a 2 ms step: every second step, 250 frames per s; 0 to 50 steps, both ends
+    assert rates == [pytest.approx(250.0)] and summary["recording_frames"] == 26
+
+
+def test_record_fps_above_the_step_rate_is_refused():
+    result = viscera("run", PLANE, "--duration", 1000, "--quiet", "--record", "x.html", "--record-fps", 1000)
+    assert_one_line(result, "--record-fps", "1000", "500")
+    assert result.returncode == 2
+
+
+def test_hold_reports_a_server_that_died(tmp_path):
+    import os
+    process, out, err = _start(tmp_path, PLANE, "--duration", 0.1, "--quiet", "--viewer", "meshcat", "--hold")
+    try:
+        _wait_for(process, out, "Ctrl-C to stop")
+        children = pathlib.Path(f"/proc/{process.pid}/task/{process.pid}/children").read_text().split()
+        servers = [pid for pid in children if b"viscera.meshcat_server" in pathlib.Path(f"/proc/{pid}/cmdline").read_bytes()]
+        assert len(servers) == 1
+        os.kill(int(servers[0]), signal.SIGKILL)
+        process.wait(timeout=QUICK)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert_one_line(subprocess.CompletedProcess([], process.returncode, out.read_text(), err.read_text()),
+                    "--hold", "meshcat server stopped")

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import viscera
+import viscera.viewer
 from viscera.viewer import MeshcatViewer
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -106,6 +107,7 @@ def test_live_view_shows_the_intestine(tmp_path):
         viewer.update(data)
         shown = intestine_pixels(screenshot(viewer.url, tmp_path / "shown.png"))
         viewer.set_intestines_visible(False)
+        assert viewer.flush() is not None  # the server has it before the browser asks
         hidden = intestine_pixels(screenshot(viewer.url, tmp_path / "hidden.png"))
     assert shown.sum() > 2000, shown.sum()
     rows, cols = np.nonzero(shown)
@@ -143,6 +145,16 @@ def test_cli_live_viewer_and_recording(tmp_path):
     assert "meshcat viewer: http://127.0.0.1:" in result.stdout
     assert "recording" in result.stdout and page.stat().st_size > 10_000
 
+
+
+@needs_chromium
+def test_a_recording_shorter_than_a_frame_shows_the_intestine(tmp_path):
+    """Fewer steps than one recorded frame apart: the first and the final states are recorded."""
+    page = tmp_path / "short.html"
+    result = subprocess.run([sys.executable, "-m", "viscera", "run", str(SCENE), "--duration", "0.05", "--quiet",
+                             "--record", str(page)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert intestine_pixels(screenshot(page.as_uri(), tmp_path / "short.png", virtual_ms=1000)).sum() > 2000
 
 def test_viewer_follows_a_dm_control_loop():
     from dm_control import mujoco as dm_mujoco
@@ -191,20 +203,35 @@ def poll(condition, timeout: float = 20.0):
     return value
 
 
-def test_viewer_that_cannot_start_raises_and_leaves_no_server():
+def started_servers(monkeypatch) -> list[subprocess.Popen]:
+    """The processes viscera.viewer starts from now on in this test (not anyone else's)."""
+    started = []
+
+    class Recorded(subprocess.Popen):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            started.append(self)
+
+    monkeypatch.setattr(viscera.viewer.subprocess, "Popen", Recorded)
+    return started
+
+
+def test_viewer_that_cannot_start_raises_and_leaves_no_server(monkeypatch):
+    started = started_servers(monkeypatch)
     model = mujoco.MjModel.from_xml_string("<mujoco/>")
     with pytest.raises(RuntimeError, match="meshcat server"):
         MeshcatViewer(model, host="300.1.1.1")  # not an address
-    assert servers_running() == []
+    assert len(started) == 1 and started[0].poll() is not None  # its own server: started, and gone
 
 
-def test_unknown_camera_is_refused_at_construction_naming_the_cameras():
+def test_unknown_camera_is_refused_at_construction_naming_the_cameras(monkeypatch):
+    started = started_servers(monkeypatch)
     model = mujoco.MjModel.from_xml_path(str(ABDOMEN))
     with pytest.raises(ValueError, match=r"'topp'.*overview, top"):
         MeshcatViewer(model, camera="topp")
     with pytest.raises(ValueError, match="no cameras"):
         MeshcatViewer(mujoco.MjModel.from_xml_string("<mujoco/>"), camera=0)
-    assert servers_running() == []
+    assert started == []  # refused before a server was started
 
 
 OWNER = """
@@ -284,8 +311,9 @@ with MeshcatViewer(model, camera="top") as viewer:
 def stalled_browser(url: str) -> socket.socket:
     """A websocket client that connects and then never reads: the slowest browser there is."""
     port = web_port(url)
-    client = socket.create_connection(("127.0.0.1", port))
-    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    client = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # before connect: the window is agreed then
+    client.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
     client.sendall(f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
                    f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
@@ -385,6 +413,75 @@ def test_abdomen_opens_framed_from_its_top_camera(tmp_path):
         assert (target & expected_target).sum() / (target | expected_target).sum() > 0.5, name
         # no axes triad at the origin (pure red and green lines), no grid
         assert ((image[..., 0] > 0.9) & (image[..., 1] < 0.1) & (image[..., 2] < 0.1)).sum() < 20
+
+
+def recorded_commands(page: pathlib.Path) -> list[dict]:
+    """The drawing commands a saved page draws, in order."""
+    import umsgpack
+    return [umsgpack.unpackb(base64.b64decode(b64)) for b64 in re.findall(r'draw\("([A-Za-z0-9+/=]*)"\)',
+                                                                           page.read_text())]
+
+
+def test_save_leaves_the_live_view_alone(tmp_path):
+    """The recorded page is built apart: the server (every browser) is sent nothing, and the
+    live scene keeps its skin, so a hold after it shows the final state."""
+    model, data = settled_scene(0.1)
+    with MeshcatViewer(model) as viewer:
+        for _ in range(3):
+            viewer.record(data)
+        viewer.update(data)
+        before = viewer.flush()["commands"]
+        viewer.save(str(tmp_path / "run.html"))
+        assert viewer.flush()["commands"] == before
+        live = {path.decode() for _, path, _ in viewer._channel.scene.commands}
+    assert "/meshcat/intestines/intestine" in live and not any(path.startswith("/meshcat/recording") for path in live)
+    paths = [command["path"] for command in recorded_commands(tmp_path / "run.html")]
+    assert "/meshcat/recording/intestine/2" in paths and "/meshcat/intestines/intestine" not in paths
+
+
+def test_a_recorder_starts_no_server(tmp_path, monkeypatch):
+    started = started_servers(monkeypatch)
+    model, data = settled_scene(0.1)
+    with MeshcatViewer(model, serve=False) as recorder:
+        assert recorder.url is None and not recorder.serving and recorder.flush() is None
+        recorder.update(data)
+        recorder.record(data)
+        recorder.record(data)
+        assert recorder.save(str(tmp_path / "run.html")) > 10_000
+        with pytest.raises(RuntimeError, match="no meshcat server"):
+            recorder.hold(timeout=1)
+    assert started == []
+    assert "/meshcat/recording/intestine/1" in [c["path"] for c in recorded_commands(tmp_path / "run.html")]
+
+
+def test_server_drops_malformed_messages_and_keeps_serving():
+    model, data = settled_scene(0.1)
+    with MeshcatViewer(model) as viewer:
+        socket_ = viewer._channel.socket
+        for message in ([b"set_object", b"/x"], [b"sync"], [b"sync", b"1", b"2"], [b"set_object", b"/x", b"", b"", b"more"]):
+            socket_.send_multipart(message)
+        status = viewer.flush()
+        assert status is not None and status["dropped"] == 4
+        viewer.update(data)
+        assert viewer.flush()["commands"] > status["commands"]
+
+
+def test_hold_raises_when_the_server_has_died():
+    model = mujoco.MjModel.from_xml_path(str(SCENE))
+    with MeshcatViewer(model) as viewer:
+        viewer._server.kill()
+        viewer._server.wait()
+        with pytest.raises(RuntimeError, match="meshcat server stopped"):
+            viewer.hold(timeout=30)
+    with MeshcatViewer(model) as viewer:  # dying during the hold
+        import threading
+        killer = threading.Timer(1.0, viewer._server.kill)
+        killer.start()
+        tick = time.monotonic()
+        with pytest.raises(RuntimeError, match="meshcat server stopped"):
+            viewer.hold(timeout=30)
+        assert time.monotonic() - tick < 20
+        killer.join()
 
 
 if __name__ == "__main__":  # python tests/python/test_viewer.py: redraw the figures in docs/
