@@ -189,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      description="Simulate an MJCF scene and print a summary. Every option is "
                                      "checked before the first step.")
     run_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/fall_on_plane.xml")
-    run_parser.add_argument("--duration", type=cli.positive_float, default=5.0, help="simulated seconds (default 5)")
+    run_parser.add_argument("--duration", type=cli.duration, default=5.0, help="simulated seconds (default 5)")
     run_parser.add_argument("--png", type=cli.output_file(".png"), help="render the final state to this PNG file")
     run_parser.add_argument("--camera", help="the scene's camera (name or number) for --png and the viewer "
                             "(default: the scene's first camera; without one, a view of the whole scene)")
@@ -200,17 +200,20 @@ def build_parser() -> argparse.ArgumentParser:
                             "(needs --viewer meshcat)")
     run_parser.add_argument("--record", type=cli.output_file(".html", ".htm"),
                             help="write a self-contained HTML recording of the run to this file")
-    run_parser.add_argument("--record-fps", type=cli.positive_float, default=10.0,
+    run_parser.add_argument("--record-fps", type=cli.positive_float_up_to(1e4, "frames per s", minimum=1e-3), default=10.0,
                             help="recorded frames per simulated second (default 10)")
     run_parser.add_argument("--host", default="127.0.0.1", help="address the viewer serves on (default: loopback only)")
     run_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    run_parser.set_defaults(command_parser=run_parser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
-    with cli.user_errors("viscera", args.verbose):
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # a misspelled option of `run` gets run's usage, not the top level's
+        args.command_parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    with cli.user_errors(f"{PROG} {args.command}", args.verbose):  # the prefix argparse's errors have
         run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record, args.record_fps,
             args.host, args.hold, report=_print_summary)
     return 0

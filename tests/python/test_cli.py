@@ -1,6 +1,6 @@
 """The command lines: a user's mistake is one clear line before any simulation; --help everywhere.
 
-Runs that must fail are given --duration 1000 (minutes of stepping) and a timeout far below
+Runs that must fail are given --duration 1e5 (hours of stepping) and a timeout far below
 that: a tool that simulated before checking its input times out instead of passing.
 """
 
@@ -19,7 +19,8 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENES = ROOT / "assets" / "scenes"
 PLANE = SCENES / "fall_on_plane.xml"
-QUICK = 60  # s: loading and checking takes about one; simulating --duration 1000 takes minutes
+QUICK = 60  # s: loading and checking takes about one
+LONG = 1e5  # simulated s: hours of stepping, so an error that comes after any simulation times out
 TOOLS = ["", ".settle", ".peers", ".soak", ".validate", ".gesture", ".bench", ".bench_cavity", ".bench_rollout",
          ".bench_scale", ".meshcat_server"]
 
@@ -68,13 +69,13 @@ def assert_usage_error(result, usage, *names):
     ("<light ", "<lamp ", ["lamp"])], ids=["misspelled-key", "bad-value", "malformed", "unknown-element"])
 def test_run_reports_a_bad_scene_in_one_line(tmp_path, old, new, names):
     path = scene(tmp_path, old, new)
-    line = assert_one_line(viscera("run", path, "--duration", 1000, "--quiet"), path, *names)
-    assert line.startswith(f"viscera: error: {path}: ") and "viscera.intestine'" not in line  # no stray quote
+    line = assert_one_line(viscera("run", path, "--duration", LONG, "--quiet"), path, *names)
+    assert line.startswith(f"python -m viscera run: error: {path}: ") and "viscera.intestine'" not in line  # no stray quote
 
 
 def test_run_reports_a_missing_scene(tmp_path):
     missing = tmp_path / "nowhere.xml"
-    assert_one_line(viscera("run", missing, "--duration", 1000), missing, "no such scene file")
+    assert_one_line(viscera("run", missing, "--duration", LONG), missing, "no such scene file")
 
 
 # --- bad options: argparse's usage error (status 2) or one line once the scene is known ---
@@ -85,16 +86,18 @@ def test_run_reports_a_missing_scene(tmp_path):
     ("--png", "x.txt", ["x.txt", ".png"]), ("--record", "x.txt", ["x.txt", ".html"]),
     ("--png", "{tmp}/no/such/folder/out.png", ["folder", "does not exist"]),
     ("--record", "{tmp}/no/such/folder/run.html", ["folder", "does not exist"]),
+    ("--duration", "1e308", ["1e308", "at most"]), ("--record-fps", "1e-308", ["1e-308", "at least"]),
+    ("--durration", "1", ["unrecognized arguments", "--durration"]),  # a typo: run's usage, not the top level's
 ])
 def test_run_refuses_a_bad_option_with_runs_usage(tmp_path, option, value, names):
     value = value.format(tmp=tmp_path)
-    duration = [] if option == "--duration" else ["--duration", 1000]
+    duration = [] if option == "--duration" else ["--duration", LONG]
     result = viscera("run", PLANE, option, value, *duration, "--quiet", cwd=tmp_path)
     assert_usage_error(result, "python -m viscera run", option, *names)
 
 
 def test_run_lists_the_cameras_for_an_unknown_one(tmp_path):
-    result = viscera("run", SCENES / "abdomen.xml", "--camera", "endoscope", "--duration", 1000, "--quiet",
+    result = viscera("run", SCENES / "abdomen.xml", "--camera", "endoscope", "--duration", LONG, "--quiet",
                      "--png", tmp_path / "out.png")
     assert_one_line(result, "--camera", "endoscope", "overview", "top")
     assert result.returncode == 2 and not (tmp_path / "out.png").exists()
@@ -105,21 +108,21 @@ def test_run_refuses_a_duration_below_one_step():
 
 
 def test_hold_needs_the_live_viewer():
-    assert_one_line(viscera("run", PLANE, "--duration", 1000, "--hold"), "--hold", "--viewer meshcat")
+    assert_one_line(viscera("run", PLANE, "--duration", LONG, "--hold"), "--hold", "--viewer meshcat")
 
 
 def test_run_refuses_a_host_it_cannot_serve_on():
-    result = viscera("run", PLANE, "--duration", 1000, "--quiet", "--viewer", "meshcat",
+    result = viscera("run", PLANE, "--duration", LONG, "--quiet", "--viewer", "meshcat",
                      "--host", "no.such.host.invalid")
     assert_one_line(result, "--host", "no.such.host.invalid")
 
 
 def test_verbose_prints_the_traceback_too(tmp_path):
     path = scene(tmp_path, 'key="length"', 'key="lenght"')
-    result = viscera("run", path, "--duration", 1000, "--verbose")
+    result = viscera("run", path, "--duration", LONG, "--verbose")
     assert result.returncode == 1
     assert "Traceback" in result.stderr and "ValueError" in result.stderr
-    assert result.stderr.splitlines()[-1].startswith(f"viscera: error: {path}: ")
+    assert result.stderr.splitlines()[-1].startswith(f"python -m viscera run: error: {path}: ")
 
 
 def _start(tmp_path, *args) -> tuple[subprocess.Popen, pathlib.Path, pathlib.Path]:
@@ -139,7 +142,7 @@ def _wait_for(process, path: pathlib.Path, text: str) -> None:
 
 
 def test_ctrl_c_ends_a_run_in_one_line(tmp_path):
-    process, _, err = _start(tmp_path, PLANE, "--duration", 1000)
+    process, _, err = _start(tmp_path, PLANE, "--duration", LONG)
     try:
         _wait_for(process, err, "step")  # the progress bar: it is stepping
         process.send_signal(signal.SIGINT)
@@ -150,7 +153,7 @@ def test_ctrl_c_ends_a_run_in_one_line(tmp_path):
     stderr = err.read_text()
     assert process.returncode == 130, stderr
     assert "Traceback" not in stderr
-    assert stderr.strip().splitlines()[-1] == "viscera: interrupted"
+    assert stderr.strip().splitlines()[-1] == "python -m viscera run: interrupted"
 
 
 def test_hold_serves_the_final_state_until_ctrl_c(tmp_path):
@@ -201,6 +204,7 @@ def test_every_option_has_a_help_text(monkeypatch, tool):
         raise _Parsed
 
     monkeypatch.setattr(argparse.ArgumentParser, "parse_args", catch)
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", catch)
     with pytest.raises(_Parsed):
         importlib.import_module(f"viscera{tool or '.__main__'}").main([])
     missing = []
@@ -244,6 +248,16 @@ def test_settle_writes_nothing_without_an_output_path(tmp_path):
 def test_settle_reports_a_missing_scene(tmp_path):
     result = viscera("--scene", tmp_path / "none.xml", "--out", tmp_path / "out.xml", module="viscera.settle")
     assert_one_line(result, "viscera.settle: error:", "none.xml")
+    assert not (tmp_path / "out.xml").exists()
+
+
+def test_settle_refuses_an_intestine_too_long_for_the_cavity(tmp_path):
+    text = (SCENES / "abdomen.xml").read_text()
+    assert 'key="length" value="3"' in text
+    long = tmp_path / "long.xml"
+    long.write_text(text.replace('key="length" value="3"', 'key="length" value="30"'))
+    result = viscera("--scene", long, "--out", tmp_path / "out.xml", "--duration", LONG, module="viscera.settle")
+    assert_one_line(result, "viscera.settle: error:", "long.xml", "15.00 m asked")  # per half
     assert not (tmp_path / "out.xml").exists()
 
 
