@@ -15,7 +15,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from viscera import cli  # noqa: E402
+from viscera import checks, cli  # noqa: E402
 from viscera.cli import UserError  # noqa: E402
 
 PROG = "python -m viscera"
@@ -25,14 +25,10 @@ def camera_id(model: mujoco.MjModel, camera: str | None, scene: str) -> int | No
     """The id of the scene's camera named (or numbered) `camera`; None stays None (the default view)."""
     if camera is None:
         return None
-    found = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
-    if found < 0 and camera.isdigit() and int(camera) < model.ncam:
-        found = int(camera)
-    if found < 0:
-        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or str(i) for i in range(model.ncam)]
-        have = f"its cameras: {', '.join(names)}" if names else "it has no cameras"
-        raise UserError(f"--camera {camera!r}: no such camera in {scene} ({have})", status=2)
-    return found
+    try:
+        return checks.camera_id(model, camera)
+    except ValueError as error:
+        raise UserError(f"--camera {camera!r}: {error} ({scene})", status=2) from None
 
 
 def check_host(host: str) -> None:

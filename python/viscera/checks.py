@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 
@@ -31,3 +32,22 @@ def checked_integer(name: str, value, minimum: int) -> int:
     if value < minimum:
         raise ValueError(f"{name} = {value}: must be at least {minimum}")
     return int(value)
+
+
+def camera_id(model: mujoco.MjModel, camera: int | str) -> int:
+    """The id of the model's camera `camera`: a name, an id, or an id written as digits (a name wins).
+
+    Raises ValueError naming `camera` and listing the cameras there are.
+    """
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or f"#{i}" for i in range(model.ncam)]
+    listing = f"its cameras: {', '.join(names)}" if names else "it has no cameras"
+    if isinstance(camera, str):
+        index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+        if index >= 0:
+            return index
+        if not camera.isdigit():
+            raise ValueError(f"no camera named {camera!r} in the scene; {listing}")
+        camera = int(camera)
+    if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) and 0 <= camera < model.ncam:
+        return int(camera)
+    raise ValueError(f"no camera {camera!r} in the scene; {listing}")

@@ -37,6 +37,7 @@ import umsgpack
 import zmq
 
 import viscera
+from viscera.checks import camera_id
 from viscera.meshcat_server import VIEWER_ROOT, Scene
 
 INTESTINE_RGB = (0.85, 0.45, 0.45)
@@ -275,20 +276,6 @@ def _visible(model: mujoco.MjModel, geom: int) -> bool:
 def _site_visible(model: mujoco.MjModel, site: int) -> bool:
     """Drawn as MuJoCo's renderer draws it by default: groups 0-2, not fully transparent."""
     return model.site_group[site] < 3 and model.site_rgba[site][3] > 0
-
-
-def camera_id(model: mujoco.MjModel, camera: int | str) -> int:
-    """The id of a camera given by name or id; ValueError naming the cameras there are."""
-    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or f"#{i}" for i in range(model.ncam)]
-    listing = f"its cameras: {', '.join(names)}" if names else "it has no cameras"
-    if isinstance(camera, str):
-        index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
-        if index < 0:
-            raise ValueError(f"no camera named {camera!r} in the scene; {listing}")
-        return index
-    if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) and 0 <= camera < model.ncam:
-        return int(camera)
-    raise ValueError(f"no camera {camera!r} in the scene; {listing}")
 
 
 def scene_bounds(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, float]:
