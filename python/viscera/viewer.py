@@ -137,7 +137,6 @@ def part_transform(data: mujoco.MjData, part: tuple[str, int]) -> np.ndarray:
     return transform
 
 
-
 def _html(commands: dict[tuple[bytes, bytes, bytes], bytes]) -> str:
     """A self-contained page that draws `commands` (a Scene's) with meshcat's bundled viewer.
 

@@ -61,12 +61,18 @@ def run(model, data, gut, seconds: float, fast_for: float = 0.0):
     return start, fastest
 
 
-def substeps(model) -> int:
-    """The substeps per step the plugin takes for the model's first intestine."""
+def stability(model) -> np.ndarray:
+    """The plugin's stability figures for the model's first intestine: highest elastic and
+    contact angular frequencies (rad/s) and the substeps per step it takes."""
     out = np.zeros(3)
     assert _library.native().viscera_intestine_stability(
         ctypes.c_void_p(model._address), 0, out.ctypes.data_as(ctypes.c_void_p)) == 0
-    return int(out[2])
+    return out
+
+
+def substeps(model) -> int:
+    """The substeps per step the plugin takes for the model's first intestine."""
+    return int(stability(model)[2])
 
 
 def diverged(messages):
@@ -178,9 +184,7 @@ def test_the_stability_estimate_matches_the_measured_limit(config):
     base = dict(damping=0, self_collision=0, shape="line", **config)
     xml = (f'<mujoco><option timestep="0.002"/>{viscera.extension_xml("rod", **base)}<worldbody/></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
-    out = np.zeros(3)
-    _library.native().viscera_intestine_stability(ctypes.c_void_p(model._address), 0,
-                                                  out.ctypes.data_as(ctypes.c_void_p))
+    out = stability(model)
     with validate._quiet_warnings():
         measured, _ = validate.largest_stable_step(base)
     assert 0.98 < measured * out[0] / (2 * np.sqrt(2)) < 1.15
