@@ -373,15 +373,16 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
     return fail(&r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(&r, "young_modulus"));
   const char* integrator = raw(&r, "integrator");
-  static const char* const integrator_names[3] = {"rk4", "symplectic_euler", "implicit"};
-  static const vsc_integrator integrators[3] = {VSC_INTEGRATOR_RK4, VSC_INTEGRATOR_SYMPLECTIC_EULER,
-                                                VSC_INTEGRATOR_IMPLICIT};
-  int chosen = integrator ? -1 : 0;
-  for (int i = 0; integrator && i < 3; ++i)
+  // indexed by vsc_integrator, so a name and its enum cannot drift apart
+  static const char* const integrator_names[VSC_INTEGRATOR_COUNT] = {
+      [VSC_INTEGRATOR_RK4] = "rk4", [VSC_INTEGRATOR_SYMPLECTIC_EULER] = "symplectic_euler",
+      [VSC_INTEGRATOR_IMPLICIT] = "implicit", [VSC_INTEGRATOR_LEAPFROG] = "leapfrog"};
+  int chosen = integrator ? -1 : VSC_INTEGRATOR_LEAPFROG;
+  for (int i = 0; integrator && i < VSC_INTEGRATOR_COUNT; ++i)
     if (strcmp(integrator, integrator_names[i]) == 0) chosen = i;
   if (chosen < 0)
-    return fail(&r, "attribute 'integrator' = '%s' must be rk4, symplectic_euler or implicit", integrator);
-  c->step.integrator = integrators[chosen];
+    return fail(&r, "attribute 'integrator' = '%s' must be rk4, symplectic_euler, implicit or leapfrog", integrator);
+  c->step.integrator = (vsc_integrator)chosen;
   const char* mass_matrix = raw(&r, "mass_matrix");
   if (mass_matrix && strcmp(mass_matrix, "consistent") != 0 && strcmp(mass_matrix, "lumped") != 0)
     return fail(&r, "attribute 'mass_matrix' = '%s' must be consistent or lumped", mass_matrix);

@@ -195,7 +195,8 @@ VSC_EXPORT int viscera_intestine_stability(const mjModel* m, int instance, doubl
   vsc_rod* rod;
   if (create_initial_rod(m, instance, &config, &initial_q, &rod)) return -1;
   vsc_rod_frequencies(rod, initial_q, &out[0], &out[1]);
-  out[2] = config.auto_substeps ? vsc_stable_substeps(config.step.integrator, out[0], out[1], m->opt.timestep)
+  out[2] = config.auto_substeps ? vsc_stable_substeps(config.step.integrator, out[0], out[1],
+                                                         rod->contact_damping_rate, m->opt.timestep)
                                 : config.step.substeps;
   release_initial_rod(&config, initial_q, rod);
   return 0;

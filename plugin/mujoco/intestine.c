@@ -543,6 +543,7 @@ static int step_substeps(const mjModel* m, intestine* it) {
     it->has_frequencies = 1;
   }
   return vsc_stable_substeps(it->config.step.integrator, it->elastic_frequency, it->contact_frequency,
+                             it->rod->contact_damping_rate,
                              m->opt.timestep);
 }
 

@@ -112,6 +112,8 @@ static void convergence_orders(void) {
   ENSURE(symplectic > 0.8 && symplectic < 1.3);
   double implicit = observed_order(VSC_INTEGRATOR_IMPLICIT, 40, 1.0);
   ENSURE(implicit > 0.8 && implicit < 1.3);
+  double leapfrog = observed_order(VSC_INTEGRATOR_LEAPFROG, 80, 1.0);  // symplectic Euler's cost, second order
+  ENSURE(leapfrog > 1.8 && leapfrog < 2.3);
 }
 
 // A 1 m, 40-point rod pinned at its top swings as a pendulum from 20 degrees
@@ -119,7 +121,8 @@ static void convergence_orders(void) {
 // its energy error oscillates at O(h) and does not grow: over the second 50 s
 // it strays no further than over the first (times a margin for the chain's
 // chaotic exchange between modes), and stays within 5 % of the swing's energy.
-static void symplectic_energy_stays_bounded(void) {
+// Leapfrog does the same at O(h^2): its error is several times smaller.
+static double largest_swing_energy_error(vsc_integrator integrator) {
   vsc_rod_def def = vsc_default_rod_def();
   def.control_count = 40;
   def.length = 1.0;
@@ -145,17 +148,25 @@ static void symplectic_energy_stays_bounded(void) {
   int steps = 50000;  // 100 s of 2 ms
   vsc_status status = VSC_OK;
   for (int step = 0; step < steps && status == VSC_OK; ++step) {
-    status = bare_step(rod, &world, q, v, 0.002, VSC_INTEGRATOR_SYMPLECTIC_EULER, 2);
+    status = bare_step(rod, &world, q, v, 0.002, integrator, 2);
     double e = total_energy(rod, q, v) + vsc_rod_gravity_energy(rod, world.gravity, q);
     double error = fabs(e - e0) / swing;
     if (step < steps / 2) first = fmax(first, error);
     else second = fmax(second, error);
   }
-  printf("  largest energy error / swing energy: first 50 s %.3g, second 50 s %.3g\n", first, second);
+  printf("  integrator %d: largest energy error / swing energy: first 50 s %.3g, second 50 s %.3g\n", integrator,
+         first, second);
   ENSURE(status == VSC_OK);
   ENSURE(first > 0.0 && second < 0.05);
   ENSURE(second < 1.5 * first);
   vsc_rod_destroy(rod);
+  return fmax(first, second);
+}
+
+static void symplectic_energy_stays_bounded(void) {
+  double euler = largest_swing_energy_error(VSC_INTEGRATOR_SYMPLECTIC_EULER);
+  double leapfrog = largest_swing_energy_error(VSC_INTEGRATOR_LEAPFROG);
+  ENSURE(leapfrog < 0.5 * euler);
 }
 
 // 100 times the stretch stiffness: RK4 at one 2 ms substep diverges at once;
@@ -195,6 +206,7 @@ static void retry_recovers_with_more_substeps(void) {
   vsc_world world = {{0, 0, 0}, NULL, 0};
   memcpy(q, q0, sizeof(q0)); memcpy(v, v0, sizeof(v0));
   vsc_step_options options = vsc_default_step_options();
+  options.integrator = VSC_INTEGRATOR_RK4;  // the driver's retries, for any integrator
   vsc_step_report report;
   ENSURE(vsc_rod_step(rod, &world, q, v, NULL, 0.002, &options, &report) == VSC_OK);
   printf("  recovered after %d retries at %d substeps\n", report.retries, report.substeps);
@@ -221,6 +233,7 @@ static void energy_jump_is_caught(void) {
   ENSURE(e1 > e0 + allowed);
   memcpy(q, q0, sizeof(q0)); memcpy(v, v0, sizeof(v0));
   vsc_step_options options = vsc_default_step_options();
+  options.integrator = VSC_INTEGRATOR_RK4;
   options.retries = 0;
   ENSURE(vsc_rod_step(rod, &world, q, v, NULL, 0.002, &options, NULL) == VSC_ERROR_DIVERGED);
   ENSURE(memcmp(q, q0, sizeof(q)) == 0);
@@ -259,40 +272,47 @@ static void push_out_is_not_a_divergence(void) {
   def.bend_stiffness = 4.0;
   vsc_rod* rod = NULL;
   ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
-  double q[180], v[180] = {0}, stick[8 * 81], start[3] = {0, 0, 0}, direction[3] = {1, 0, 0};
-  ENSURE(vsc_layout_line(60, 1.0, start, direction, q) == VSC_OK);
-  vsc_stick_clear(stick, 81);
-  vsc_geom plane = {0};
-  plane.type = VSC_GEOM_PLANE;
-  plane.rotation[0] = plane.rotation[4] = plane.rotation[8] = 1.0;
-  plane.is_static = 1;
-  vsc_world world = {{0, 0, 0}, &plane, 1};  // no gravity: the push alone
-  vsc_deepest_contact deepest;
-  double energy = vsc_rod_contact_energy(rod, &world, q, &deepest);
-  ENSURE_NEAR(deepest.depth, def.radius, 1e-12);
-  ENSURE_NEAR(energy, 81 * 0.5 * def.contact_stiffness * pow(VSC_SPRING_DEPTH * def.radius, 2) +
-                          81 * def.contact_stiffness * VSC_SPRING_DEPTH * def.radius * 0.5 * def.radius, 1e-9);
-  vsc_step_options options = vsc_default_step_options();
-  options.substeps = 2;
-  double fastest = 0.0;
-  for (int step = 0; step < 50; ++step) {  // 0.1 s of 2 ms steps
-    vsc_step_report report;
-    ENSURE(vsc_rod_step(rod, &world, q, v, stick, 0.002, &options, &report) == VSC_OK);
-    ENSURE(report.retries == 0);
-    for (int k = 0; k < 60; ++k) fastest = fmax(fastest, fabs(v[3 * k + 2]));
+  double elastic, contact, line[180], start[3] = {0, 0, 0}, direction[3] = {1, 0, 0};
+  ENSURE(vsc_layout_line(60, 1.0, start, direction, line) == VSC_OK);
+  vsc_rod_frequencies(rod, line, &elastic, &contact);
+  vsc_integrator integrators[2] = {VSC_INTEGRATOR_RK4, VSC_INTEGRATOR_LEAPFROG};
+  for (int which = 0; which < 2; ++which) {  // each at the substeps the plugin would take for 2 ms
+    double q[180], v[180] = {0}, stick[8 * 81];
+    memcpy(q, line, sizeof(q));
+    vsc_stick_clear(stick, 81);
+    vsc_geom plane = {0};
+    plane.type = VSC_GEOM_PLANE;
+    plane.rotation[0] = plane.rotation[4] = plane.rotation[8] = 1.0;
+    plane.is_static = 1;
+    vsc_world world = {{0, 0, 0}, &plane, 1};  // no gravity: the push alone
+    vsc_deepest_contact deepest;
+    double energy = vsc_rod_contact_energy(rod, &world, q, &deepest);
+    ENSURE_NEAR(deepest.depth, def.radius, 1e-12);
+    ENSURE_NEAR(energy, 81 * 0.5 * def.contact_stiffness * pow(VSC_SPRING_DEPTH * def.radius, 2) +
+                            81 * def.contact_stiffness * VSC_SPRING_DEPTH * def.radius * 0.5 * def.radius, 1e-9);
+    vsc_step_options options = vsc_default_step_options();
+    options.integrator = integrators[which];
+    options.substeps = vsc_stable_substeps(options.integrator, elastic, contact, rod->contact_damping_rate, 0.002);
+    double fastest = 0.0;
+    for (int step = 0; step < 50; ++step) {  // 0.1 s of 2 ms steps
+      vsc_step_report report;
+      ENSURE(vsc_rod_step(rod, &world, q, v, stick, 0.002, &options, &report) == VSC_OK);
+      ENSURE(report.retries == 0);
+      for (int k = 0; k < 60; ++k) fastest = fmax(fastest, fabs(v[3 * k + 2]));
+    }
+    double lowest = INFINITY, mean_speed = 0.0;
+    for (int k = 0; k < 60; ++k) {
+      lowest = fmin(lowest, q[3 * k + 2]);
+      mean_speed += v[3 * k + 2] / 60.0;
+    }
+    printf("  integrator %d, %d substeps: pushed out, lowest point z = %.4f m, mean speed %.3f m/s, fastest %.3f m/s\n",
+           options.integrator, options.substeps, lowest, mean_speed, fastest);
+    ENSURE(lowest > def.radius);  // out of the plane
+    double ordinary = VSC_DEEP_CONTACT * def.radius, sphere_mass = def.mass / def.collision_sphere_count;
+    double bound = sqrt(VSC_PUSH_OUT_SPEED * VSC_PUSH_OUT_SPEED + def.contact_stiffness * ordinary * ordinary / sphere_mass);
+    ENSURE(mean_speed > 0.5 * VSC_PUSH_OUT_SPEED && mean_speed < bound);
+    ENSURE(fastest < 1.5 * bound);  // control points, not spheres: the ends ring for a few ms
   }
-  double lowest = INFINITY, mean_speed = 0.0;
-  for (int k = 0; k < 60; ++k) {
-    lowest = fmin(lowest, q[3 * k + 2]);
-    mean_speed += v[3 * k + 2] / 60.0;
-  }
-  printf("  pushed out: lowest point z = %.4f m, mean speed %.3f m/s, fastest %.3f m/s\n", lowest, mean_speed,
-         fastest);
-  ENSURE(lowest > def.radius);  // out of the plane
-  double ordinary = VSC_DEEP_CONTACT * def.radius, sphere_mass = def.mass / def.collision_sphere_count;
-  double bound = sqrt(VSC_PUSH_OUT_SPEED * VSC_PUSH_OUT_SPEED + def.contact_stiffness * ordinary * ordinary / sphere_mass);
-  ENSURE(mean_speed > 0.5 * VSC_PUSH_OUT_SPEED && mean_speed < bound);
-  ENSURE(fastest < 1.5 * bound);  // control points, not spheres: the ends ring for a few ms
   vsc_rod_destroy(rod);
 }
 
@@ -306,12 +326,22 @@ static void stable_substeps_hold(void) {
   vsc_rod_frequencies(rod, q0, &elastic, &contact);
   printf("  omega: elastic %.0f rad/s, contact %.0f rad/s\n", elastic, contact);
   ENSURE(elastic > 1800.0 && elastic < 2200.0);  // RK4's measured limit 1.45 ms = 2.83 / 1950 rad/s
-  int substeps = vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 0.005);
+  double gamma = rod->contact_damping_rate;  // set by vsc_rod_frequencies: c omega_contact^2 / k
+  ENSURE(fabs(gamma - rod->def.contact_damping * contact * contact / rod->def.contact_stiffness) <= 1e-9 * gamma);
+  int substeps = vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 0.005);
   ENSURE(substeps == (int)ceil(0.005 * elastic / VSC_RK4_TRUSTED_OMEGA_H));
-  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 0.002) == 2);  // the shipped scenes
-  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, 0.005) > substeps);
-  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_IMPLICIT, elastic, contact, 0.005) < substeps);
-  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, 1e-6) == 1);
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 0.002) == 2);
+  int euler = vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, 0.0, 0.005);
+  ENSURE(euler == (int)ceil(0.005 * elastic / VSC_EULER_TRUSTED_OMEGA_H) && euler > substeps);
+  // damping only ever asks for more; leapfrog's limit is symplectic Euler's
+  int damped = vsc_stable_substeps(VSC_INTEGRATOR_LEAPFROG, elastic, contact, gamma, 0.005);
+  ENSURE(damped >= euler && damped == vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, gamma, 0.005));
+  double trusted2 = VSC_EULER_TRUSTED_OMEGA_H * VSC_EULER_TRUSTED_OMEGA_H;
+  double hd = 0.005 / damped, hb = 0.005 / (damped - 1);  // the damped bound holds at the count chosen, not one below
+  ENSURE(elastic * elastic * hd * hd + 2.0 * gamma * hd <= trusted2);
+  ENSURE(damped == 1 || elastic * elastic * hb * hb + 2.0 * gamma * hb > trusted2);
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_IMPLICIT, elastic, contact, gamma, 0.005) < substeps);
+  ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 1e-6) == 1);
   vsc_world world = {{0, 0, 0}, NULL, 0};
   int held[2];
   int tries[2] = {substeps, substeps / 2};

@@ -5,8 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { RIGID = 0, SELF = 9 };  // offsets of the two records in a touch entry
-enum { T_PARTNER = 0, T_NORMAL_FORCE = 1, T_MU = 2, T_NORMAL = 3, T_TANGENT_VELOCITY = 6 };
+enum { RIGID = 0, SELF = 11 };  // offsets of the two records in a touch entry
+// T_S, T_T: a self-contact's closest points on its segments (0 for rigid contacts)
+enum { T_PARTNER = 0, T_NORMAL_FORCE = 1, T_MU = 2, T_NORMAL = 3, T_TANGENT_VELOCITY = 6, T_S = 9, T_T = 10 };
 
 typedef struct pass {
   vsc_rod* rod;
@@ -76,9 +77,12 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
   return normal;
 }
 
-static void record_touch(double* touch, int partner, double normal, double mu, const double n[3], const double vt[3]) {
+static void record_touch(double* touch, int partner, double normal, double mu, const double n[3], const double vt[3],
+                         double s, double t) {
   if (normal <= touch[T_NORMAL_FORCE]) return;  // keep the strongest contact
   touch[T_PARTNER] = partner;
+  touch[T_S] = s;
+  touch[T_T] = t;
   touch[T_NORMAL_FORCE] = normal;
   touch[T_MU] = mu;
   for (int a = 0; a < 3; ++a) {
@@ -187,7 +191,7 @@ static void self_pair(void* context, int earlier, int item) {
   add_at_sphere(rod, b, share, p->Q);
   for (int c = 0; c < 3; ++c) share[c] = -t * f[c];
   add_at_sphere(rod, b + 1, share, p->Q);
-  record_touch(rod->touch + VSC_TOUCH_SIZE * a + SELF, b, normal, mu, n, tangent);
+  record_touch(rod->touch + VSC_TOUCH_SIZE * a + SELF, b, normal, mu, n, tangent, s, t);
   ++p->contacts;
 }
 
@@ -229,7 +233,7 @@ static void sphere_geom(void* context, int i) {
     out[4] -= w * (arm[2] * f[0] - arm[0] * f[2]);
     out[5] -= w * (arm[0] * f[1] - arm[1] * f[0]);
   }
-  record_touch(rod->touch + VSC_TOUCH_SIZE * i + RIGID, p->geom, normal, geom->friction, n, tangent);
+  record_touch(rod->touch + VSC_TOUCH_SIZE * i + RIGID, p->geom, normal, geom->friction, n, tangent, 0.0, 0.0);
   ++p->contacts;
 }
 
@@ -740,8 +744,9 @@ int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]) {
 }
 
 // One friction slot: follow the partner of the last evaluation, advance the
-// elongation by v_t h in the tangent plane, clamp it at the slip limit.
-static void update_slot(double* slot, const double* touch, double k, double h) {
+// elongation by (v_t + unseen) h in the tangent plane, clamp it at the slip
+// limit. `unseen` (m/s) is the relative velocity change the evaluation did not see.
+static void update_slot(double* slot, const double* touch, const double unseen[3], double k, double h) {
   int partner = (int)touch[T_PARTNER];
   if (partner < 0) {
     slot[0] = -1.0;
@@ -755,7 +760,7 @@ static void update_slot(double* slot, const double* touch, double k, double h) {
   double* e = slot + 1;
   const double* n = touch + T_NORMAL;
   const double* vt = touch + T_TANGENT_VELOCITY;
-  for (int a = 0; a < 3; ++a) e[a] += vt[a] * h;
+  for (int a = 0; a < 3; ++a) e[a] += (vt[a] + unseen[a]) * h;
   double along = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
   for (int a = 0; a < 3; ++a) e[a] -= along * n[a];
   double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
@@ -764,15 +769,35 @@ static void update_slot(double* slot, const double* touch, double k, double h) {
     for (int a = 0; a < 3; ++a) e[a] *= limit / length;
 }
 
-void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h) {
+// Velocity change (m/s) at sphere i from the control points' (3n).
+static void sphere_change(const vsc_rod* rod, const double* velocity_change, int i, double out[3]) {
+  vsc_basis_point(&rod->sphere_basis[i], velocity_change, out);
+}
+
+void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const double* velocity_change) {
   if (!rod->touched) {  // no contact was looked for: none holds
     vsc_stick_clear(stick, rod->def.collision_sphere_count);
     return;
   }
   double k = rod->def.contact_stiffness;
-  for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
+  int spheres = rod->def.collision_sphere_count;
+  for (int i = 0; i < spheres; ++i) {
     const double* touch = rod->touch + VSC_TOUCH_SIZE * i;
-    update_slot(stick + VSC_STICK_SIZE * i, touch + RIGID, k, h);
-    update_slot(stick + VSC_STICK_SIZE * i + 4, touch + SELF, k, h);
+    const double* rigid = touch + RIGID;
+    double unseen[3] = {0.0, 0.0, 0.0};
+    if (velocity_change && rigid[T_PARTNER] >= 0.0) sphere_change(rod, velocity_change, i, unseen);
+    update_slot(stick + VSC_STICK_SIZE * i, rigid, unseen, k, h);
+    const double* self = touch + SELF;
+    if (velocity_change && self[T_PARTNER] >= 0.0) {  // (1 - s) a + s (a + 1) - (1 - t) b - t (b + 1)
+      int b = (int)self[T_PARTNER];
+      double s = self[T_S], t = self[T_T], a0[3], a1[3], b0[3], b1[3];
+      sphere_change(rod, velocity_change, i, a0);
+      sphere_change(rod, velocity_change, i + 1, a1);
+      sphere_change(rod, velocity_change, b, b0);
+      sphere_change(rod, velocity_change, b + 1, b1);
+      for (int a = 0; a < 3; ++a)
+        unseen[a] = (1.0 - s) * a0[a] + s * a1[a] - (1.0 - t) * b0[a] - t * b1[a];
+    }
+    update_slot(stick + VSC_STICK_SIZE * i + 4, self, unseen, k, h);
   }
 }

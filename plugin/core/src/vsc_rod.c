@@ -175,6 +175,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   if (!rod) return VSC_ERROR_OUT_OF_MEMORY;
   int n = def->control_count, spheres = def->collision_sphere_count, S = def->samples_per_segment;
   rod->def = *def;
+  rod->contact_damping_rate = 0.0;
   double* clamp_direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
   for (int end = 0; end < 2; ++end) {
     double* t = clamp_direction[end];
@@ -540,7 +541,16 @@ void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q,
   vsc_rod_forces(rod, world, q, v, a);
   for (int k = 0; k < n; ++k)
     if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
-  vsc_band_solve3(rod->mass_factor, n, a);
+  if (rod->def.lumped_mass) {  // a diagonal factor: the band solve's off-diagonal terms are all zero
+    for (int k = 0; k < n; ++k) {
+      double inverse = rod->mass_factor[4 * k + 3];
+      a[3 * k] *= inverse;
+      a[3 * k + 1] *= inverse;
+      a[3 * k + 2] *= inverse;
+    }
+  } else {
+    vsc_band_solve3(rod->mass_factor, n, a);
+  }
   // damping force -c M v gives acceleration -c v without a solve
   double c = rod->def.damping;
   for (int i = 0; i < 3 * n; ++i) a[i] -= c * v[i];
@@ -588,6 +598,14 @@ double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const
 }
 
 double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
+  if (rod->def.lumped_mass) {
+    double e = 0.0;
+    for (int k = 0; k < rod->n; ++k) {
+      const double* vk = v + 3 * k;
+      e += 0.5 * rod->mass_band[4 * k + 3] * (vk[0] * vk[0] + vk[1] * vk[1] + vk[2] * vk[2]);
+    }
+    return e;
+  }
   double* Mv = rod->stage;  // scratch
   vsc_band_multiply3(rod->mass_band, rod->n, v, Mv);
   double e = 0.0;

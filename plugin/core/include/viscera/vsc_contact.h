@@ -50,8 +50,9 @@
 #define VSC_STICK_SIZE 8
 
 /// Per sphere record of the last evaluation's strongest contacts (rigid, then
-/// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3).
-#define VSC_TOUCH_SIZE 18
+/// self): partner, normal force (N), mu, normal (3), tangential velocity (m/s, 3),
+/// closest points on the two segments (self; 0 for rigid).
+#define VSC_TOUCH_SIZE 22
 
 /// Deep contacts push out at a bounded speed. A sphere that starts deep in a
 /// geom (placed there) would be thrown out at d sqrt(k / m) by the spring's
@@ -113,7 +114,11 @@ double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double
 int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]);
 
 /// Advance the friction state by a substep of h (s), from the contacts of the
-/// last evaluation.
-void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h);
+/// last evaluation. `velocity_change` (m/s per control point coordinate, 3n,
+/// may be NULL) is what the substep added to v after that evaluation read it:
+/// a stick spring then stretches with the substep's end velocity, as the
+/// positions move (symplectic Euler on the spring), not with its start velocity
+/// (explicit Euler, which pumps energy into a stuck contact every substep).
+void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const double* velocity_change);
 
 #endif  // VISCERA_VSC_CONTACT_H

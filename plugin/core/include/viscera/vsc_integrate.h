@@ -22,7 +22,16 @@ typedef enum vsc_integrator {
   /// contact stiffness never limit h; first order, and it damps motion whose
   /// period is not resolved by h. Self-contacts and friction stay explicit.
   VSC_INTEGRATOR_IMPLICIT = 2,
+  /// Leapfrog (Stormer-Verlet, drift-kick-drift): q += h/2 v, v += h a(q, v),
+  /// q += h/2 v. 1 evaluation a substep and the same stability limit as
+  /// symplectic Euler (h < 2 / omega_max), but second order, time-reversible
+  /// and symplectic on the conservative forces (damping and friction, which
+  /// read the substep's start velocity, are first order in their small rates).
+  VSC_INTEGRATOR_LEAPFROG = 3,
 } vsc_integrator;
+
+/// How many integrators there are (the enum's values are 0 to this less 1).
+#define VSC_INTEGRATOR_COUNT 4
 
 /// A finite state counts as diverged when a control point moves faster than
 /// this (m/s): nothing in a surgical scene does.
@@ -42,7 +51,7 @@ typedef struct vsc_step_options {
   double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
 } vsc_step_options;
 
-/// RK4, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2.
+/// Leapfrog, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2.
 vsc_step_options vsc_default_step_options(void);
 
 /// What a step did.
@@ -98,15 +107,20 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
 /// elastic forces (M^-1 K, pinned points held), and of its contact springs
 /// alone, every sphere pressed by a geom in every direction (a rod lying on a
 /// plane has exactly that across it), times sqrt(2) with self-collision (a
-/// pair presses two spheres). Power iteration, O(n) per iteration.
-/// Overwrites the rod's scratch (samples, stages, the implicit system).
+/// pair presses two spheres). Power iteration, O(n) per iteration. Also sets
+/// rod->contact_damping_rate. Overwrites the rod's scratch (samples, stages,
+/// the implicit system).
 void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact);
 
 /// Fewest substeps of `integrator` for a step dt (s) with omega h within the
 /// trusted bound above, omega from the frequencies (rad/s) of
 /// vsc_rod_frequencies (explicit integrators: the larger; implicit: contact,
-/// whose friction and self-contacts it takes explicitly); 1 to
+/// whose friction and self-contacts it takes explicitly); for leapfrog and
+/// symplectic Euler, which apply damping explicitly, omega^2 h^2 + 2 g h
+/// within the bound's square, g the contact damping rate (1/s,
+/// rod->contact_damping_rate after vsc_rod_frequencies; 0: none); 1 to
 /// VSC_MAX_AUTO_SUBSTEPS.
-int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double dt);
+int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
+                        double dt);
 
 #endif  // VISCERA_VSC_INTEGRATE_H

@@ -151,6 +151,8 @@ typedef struct vsc_rod {
   vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
   int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
   double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
+  double contact_damping_rate;  ///< the stiffest contact mode's damping rate, c omega_contact^2 / k (1/s),
+                                ///< set by vsc_rod_frequencies (0 before)
   int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
   vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
