@@ -386,7 +386,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   const char* mass_matrix = raw(&r, "mass_matrix");
   if (mass_matrix && strcmp(mass_matrix, "consistent") != 0 && strcmp(mass_matrix, "lumped") != 0)
     return fail(&r, "attribute 'mass_matrix' = '%s' must be consistent or lumped", mass_matrix);
-  d->lumped_mass = mass_matrix && strcmp(mass_matrix, "lumped") == 0;
+  d->lumped_mass = !mass_matrix || strcmp(mass_matrix, "lumped") == 0;  // lumped unless told otherwise
   const char* clamped = raw(&r, "clamped");
   static const char* const clamp_names[4] = {"none", "start", "end", "both"};
   int clamp = clamped ? -1 : 0;

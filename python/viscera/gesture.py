@@ -6,11 +6,12 @@ A closed-loop scripted policy for the clear_area task (dm_control convention:
 ``action = policy(time_step)``), built from the observations alone: it reads
 the intestine's axis points and the tool joints, and plays smooth,
 velocity-limited tool trajectories (viscera.trajectory) between phases. Each
-cycle: choose the highest axis point over the target (the top loop first, so it
+cycle, while less than `good_enough` (95 %) of the target is uncovered: choose the highest axis point over the target (the top loop first, so it
 does not drag the loops below), bring the open grasper above it, descend, close
 the jaws (the plugin takes hold of the nearest axis point), lift, carry it
 beyond the target's edge, lower, release. When no loop lies over the target, or
-the time is nearly up, the grasper withdraws to its trocar. The retractor
+the time is nearly up, or the target is uncovered enough (chasing the last cells
+with another pick drags the laid loops back), the grasper withdraws to its trocar. The retractor
 meanwhile presses on the loops just outside the target's edge where the picked
 loops are laid, so that they do not slide back.
 
@@ -46,11 +47,13 @@ class ClearingGesture:
 
     cycle_duration = 3.9  # s, one pick and lay
 
-    def __init__(self, env, withdraw_at: float = 18.0, carry_beyond: float = 0.06, carry_height: float = 0.09):
+    def __init__(self, env, withdraw_at: float = 18.0, carry_beyond: float = 0.06, carry_height: float = 0.09,
+                 good_enough: float = 0.95):
         physics = env.physics
         model = physics.model
         self.control_timestep = env.control_timestep()
         self.withdraw_at = withdraw_at  # s: then the tools leave, whatever remains
+        self.good_enough = good_enough  # uncovered fraction at which the tools leave
         self.carry_beyond = carry_beyond  # m beyond the target's edge where a picked loop is laid
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back (carried 4, 6 and 8 cm past the edge, 9 cm cleared the target every
@@ -101,7 +104,8 @@ class ClearingGesture:
         """Queue the phases of the next cycle from the axis points (m, (k, 3)) and the target's
         coverage grid."""
         over = self._over_covered_cells(axis, coverage)
-        if self.time + self.cycle_duration > self.withdraw_at or not over.any():
+        uncovered = 1.0 - float(np.mean(np.asarray(coverage) > 0.5))
+        if self.time + self.cycle_duration > self.withdraw_at or not over.any() or uncovered >= self.good_enough:
             self._plan_withdraw()
             return
         index = np.flatnonzero(over)[np.argmax(axis[over, 2])]  # the top loop first

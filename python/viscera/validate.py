@@ -448,7 +448,7 @@ def energy_drift(step: float, duration: float = 1.0) -> dict:
     gravity, damping or contact: the largest relative change of its total energy over `duration`
     s at the RK4 step `step` (s, one substep per MuJoCo step)."""
     config = dict(length=1.0, control_points=25, young_modulus=1e5, damping=0, substeps=1, self_collision=0,
-                  shape="line", direction=[1, 0, 0])
+                  shape="line", direction=[1, 0, 0], integrator="rk4")
     model, data, gut = _compile(config, step, gravity=(0, 0, 0))
     positions = gut.positions(data)
     positions[:, 2] = 0.05 * np.sin(np.pi * positions[:, 0])

@@ -763,10 +763,12 @@ static void update_slot(double* slot, const double* touch, const double unseen[3
   for (int a = 0; a < 3; ++a) e[a] += (vt[a] + unseen[a]) * h;
   double along = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
   for (int a = 0; a < 3; ++a) e[a] -= along * n[a];
-  double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+  double length2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
   double limit = touch[T_MU] * touch[T_NORMAL_FORCE] / k;
-  if (length > limit)  // slipping: the spring stays at the Coulomb limit
-    for (int a = 0; a < 3; ++a) e[a] *= limit / length;
+  if (length2 > limit * limit) {  // slipping: the spring stays at the Coulomb limit (sqrt only then)
+    double scale = limit / sqrt(length2);
+    for (int a = 0; a < 3; ++a) e[a] *= scale;
+  }
 }
 
 // Velocity change (m/s) at sphere i from the control points' (3n).

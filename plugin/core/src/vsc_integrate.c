@@ -82,14 +82,23 @@ static vsc_status rk4_substep(vsc_rod* rod, vsc_world* world, double* q, double*
   return VSC_OK;
 }
 
+// The mass-proportional damping c (1/s) in the acceleration is -c v; a kick
+// v += h a applies it as v (1 - c h). Adding (e^{-c h} - 1 + c h) v makes it
+// exact, v e^{-c h} (a uniform motion decays as exp(-c t) whatever h), at no cost.
+static double exact_damping_correction(const vsc_rod* rod, double h) {
+  double ch = rod->def.damping * h;
+  return expm1(-ch) + ch;
+}
+
 static vsc_status symplectic_euler_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h,
                                            double dt, const double** unseen) {
   int size = 3 * rod->n;
   double* a = rod->stage;
   world->wrench_weight = h / dt;
   vsc_rod_acceleration(rod, world, q, v, a);
+  double exact = exact_damping_correction(rod, h);
   for (int i = 0; i < size; ++i) {
-    a[i] *= h;  // now the velocity change
+    a[i] = h * a[i] + exact * v[i];  // now the velocity change
     v[i] += a[i];
     q[i] += h * v[i];
   }
@@ -107,8 +116,9 @@ static vsc_status leapfrog_substep(vsc_rod* rod, vsc_world* world, double* q, do
   for (int i = 0; i < size; ++i) q[i] += half * v[i];
   world->wrench_weight = h / dt;
   vsc_rod_acceleration(rod, world, q, v, a);
+  double exact = exact_damping_correction(rod, h);
   for (int i = 0; i < size; ++i) {
-    a[i] *= h;  // now the velocity change
+    a[i] = h * a[i] + exact * v[i];  // now the velocity change
     v[i] += a[i];
     q[i] += half * v[i];
   }

@@ -53,8 +53,9 @@ typedef struct vsc_rod_def {
   double global_stretch_stiffness;   ///< global length stiffness K_g (N/m, >= 0)
   double bending_rigidity;           ///< EI of the curvature bending energy (N m^2, >= 0; 0: none)
   double damping;                    ///< mass-proportional viscous damping (1/s, >= 0)
-  int lumped_mass;                   ///< 1: M lumped, sum_j M_kj on the diagonal (same total mass and
-                                     ///< gravity, a stable step about 1.4x longer); 0: consistent M
+  int lumped_mass;                   ///< 1 (default): M lumped, sum_j M_kj on the diagonal (same total
+                                     ///< mass, gravity and statics, a stable step about 1.4x longer, a
+                                     ///< diagonal solve); 0: the paper's consistent band M
   double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
   double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
