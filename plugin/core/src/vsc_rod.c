@@ -314,36 +314,47 @@ void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
   }
 }
 
+// Vectors and lengths of the springs from sample a to a + gap. Restrict
+// parameters (not restrict locals) are what lets GCC vectorise it.
+VSC_VECTOR_CLONES static void edge_vectors(const double* restrict x, const double* restrict y,
+                                           const double* restrict z, double* restrict ex, double* restrict ey,
+                                           double* restrict ez, double* restrict el, int count, int gap) {
+  for (int a = 0; a < count; ++a) {
+    double dx = x[a + gap] - x[a], dy = y[a + gap] - y[a], dz = z[a + gap] - z[a];
+    ex[a] = dx;
+    ey[a] = dy;
+    ez[a] = dz;
+    el[a] = sqrt(dx * dx + dy * dy + dz * dz);
+  }
+}
+
 // Vectors and lengths of the springs from sample a to a + gap (N - gap of
 // them) into edge_*; returns the sum of their lengths (m).
 static double spring_edges(vsc_rod* rod, int gap) {
   int count = rod->sample_count - gap;
-  // distinct blocks of rod->scratch (restrict: the loop vectorises)
-  const double *restrict x = rod->sample_x, *restrict y = rod->sample_y, *restrict z = rod->sample_z;
-  double *restrict ex = rod->edge_x, *restrict ey = rod->edge_y, *restrict ez = rod->edge_z;
-  double *restrict el = rod->edge_length;
-  for (int a = 0; a < count; ++a) {
-    ex[a] = x[a + gap] - x[a];
-    ey[a] = y[a + gap] - y[a];
-    ez[a] = z[a + gap] - z[a];
-    el[a] = sqrt(ex[a] * ex[a] + ey[a] * ey[a] + ez[a] * ez[a]);
-  }
+  edge_vectors(rod->sample_x, rod->sample_y, rod->sample_z, rod->edge_x, rod->edge_y, rod->edge_z,
+               rod->edge_length, count, gap);
+  const double* el = rod->edge_length;
   double total = 0.0;  // apart and in order: an ordered sum does not vectorise
   for (int a = 0; a < count; ++a) total += el[a];
   return total;
 }
 
-// Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
-// (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
-static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
-  double *restrict ex = rod->edge_x, *restrict ey = rod->edge_y, *restrict ez = rod->edge_z;
-  const double* restrict el = rod->edge_length;
+VSC_VECTOR_CLONES static void scale_edges(double* restrict ex, double* restrict ey, double* restrict ez,
+                                          const double* restrict el, int count, double k, double rest,
+                                          double extra) {
   for (int a = 0; a < count; ++a) {
     double scale = (k * (el[a] - rest) + extra) / (el[a] + 1e-300);
     ex[a] *= scale;
     ey[a] *= scale;
     ez[a] *= scale;
   }
+}
+
+// Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
+// (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
+static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
+  scale_edges(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, count, k, rest, extra);
 }
 
 // f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
