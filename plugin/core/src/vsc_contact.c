@@ -770,9 +770,9 @@ static void update_slot(double* slot, const double* touch, const double unseen[3
   double along = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
   for (int a = 0; a < 3; ++a) e[a] -= along * n[a];
   double length2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
-  double limit = touch[T_MU] * touch[T_NORMAL_FORCE] / k;
-  if (length2 > limit * limit) {  // slipping: the spring stays at the Coulomb limit (sqrt only then)
-    double scale = limit / sqrt(length2);
+  double friction = touch[T_MU] * touch[T_NORMAL_FORCE];  // the slip limit is friction / k (m)
+  if (length2 * k * k > friction * friction) {  // slipping: the spring stays at the Coulomb limit
+    double scale = friction / k / sqrt(length2);  // (division and sqrt only then)
     for (int a = 0; a < 3; ++a) e[a] *= scale;
   }
 }
