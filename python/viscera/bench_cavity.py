@@ -13,14 +13,17 @@ compute and advance, one 2 ms step) with perf_counter_ns:
     sweep the cavity, push through the bowel and the jaws open and close: the
     vigorous load.
 Peers, run in the same process on the same controls:
-  - full: 250 control points, self-collision, both tools, grasping;
+  - full: 250 control points, self-collision, both tools, grasping, at the
+    defaults (leapfrog with the lumped mass matrix: 3 substeps of one force
+    evaluation per 2 ms step);
+  - RK4, consistent mass: the previous defaults (2 RK4 substeps of 4
+    evaluations; same controls, so this compares cost, not outcome);
+  - consistent mass: leapfrog with the paper's band mass matrix (4 substeps:
+    its highest frequencies are higher);
   - spheres 1.5 r: collision spheres 18.75 mm apart instead of 12.5 mm (161
     instead of 241; a haptic setup's choice: a 5 mm shaft may then dip 3.3 mm
     between spheres instead of 1.4 mm, tube-tube contact stays exact);
-  - implicit, 1 substep: the linearly implicit integrator at one 2 ms substep
-    instead of RK4 at two (same controls; the bowel then moves differently, so
-    this compares cost, not outcome);
-  - symplectic Euler, 4 substeps: 4 force evaluations a step instead of 8;
+  - implicit, 1 substep: the linearly implicit integrator at one 2 ms substep;
   - no self-collision: the intestine against the walls and tools only;
   - rigid only: the same scene without the intestine (MuJoCo's own share).
 Reported per load and variant, medians over runs: wall seconds per simulated
@@ -74,9 +77,10 @@ def sweep_controls(model: mujoco.MjModel, duration: float = 20.0) -> np.ndarray:
 
 
 # config keys each variant adds to the intestine's instance
-VARIANT_CONFIG = {"spheres 1.5 r": {"collision_spheres": 161},
+VARIANT_CONFIG = {"RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent"},
+                  "consistent mass": {"mass_matrix": "consistent"},
+                  "spheres 1.5 r": {"collision_spheres": 161},
                   "implicit, 1 substep": {"integrator": "implicit", "substeps": 1},
-                  "symplectic Euler, 4 substeps": {"integrator": "symplectic_euler", "substeps": 4},
                   "no self-collision": {"self_collision": 0}}
 
 
@@ -107,8 +111,8 @@ def time_replay(model: mujoco.MjModel, controls: np.ndarray) -> np.ndarray:
     return latency
 
 
-VARIANTS = ("full", "spheres 1.5 r", "implicit, 1 substep", "symplectic Euler, 4 substeps", "no self-collision",
-            "rigid only")
+VARIANTS = ("full", "RK4, consistent mass", "consistent mass", "spheres 1.5 r", "implicit, 1 substep",
+            "no self-collision", "rigid only")
 
 
 LOADS = ("gesture", "sweep")
