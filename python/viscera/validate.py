@@ -552,13 +552,18 @@ def plot_maps(stability: dict, cost: dict, accuracy: dict, folder: pathlib.Path)
     fig, axes = plt.subplots(1, 2, figsize=(9.5, 3.8))
     for ax, key, label in ((axes[0], "against_stretch_stiffness", "stretch_stiffness"),
                            (axes[1], "against_control_points", "control_points")):
+        drawn = {}
         for integrator, maps in stability.items():
             rows = maps[key]
             x = [r[label] for r in rows]
             y = [r["largest_step_s"] * 1e3 for r in rows]
             capped = all(r["failure"].startswith("stable at") for r in rows)
-            ax.loglog(x, y, INTEGRATOR_STYLE.get(integrator, "x-"),
-                      label=integrator + (" (stable at the 20 ms cap everywhere)" if capped else ""))
+            same = [other for other, values in drawn.items() if values == y]  # one line would hide the other
+            note = " (stable at the 20 ms cap everywhere)" if capped else (f" (= {same[0]})" if same else "")
+            style = INTEGRATOR_STYLE.get(integrator, "x-")
+            ax.loglog(x, y, style[0] + "--" if same else style, label=integrator + note,
+                      **({"markerfacecolor": "none", "markersize": 10} if same else {}))
+            drawn[integrator] = y
         ax.axhline(2.0, color="grey", lw=0.8, ls=":")
         ax.annotate("2 ms MuJoCo step", (ax.get_xlim()[0], 2.2), fontsize=7, color="grey")
         ax.set_xlabel(label.replace("_", " ") + (" (N/m)" if "stiffness" in label else ""))
@@ -624,7 +629,7 @@ def plot(results: dict, peer_results: dict, folder: pathlib.Path) -> list[pathli
         fig, ax = plt.subplots(figsize=(5.2, 3.8))
         x = [r["wall_s_per_sim_s"] for r in rows]
         y = [max(r["relative_error"], 1e-9) for r in rows]
-        ax.loglog(x, y, "o-", label="viscera (RK4), n control points")
+        ax.loglog(x, y, "o-", label="viscera (leapfrog, lumped M), n control points")
         for r, xi, yi in zip(rows, x, y):
             ax.annotate(f"{r['control_points']}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
         unsupported = []
