@@ -191,6 +191,10 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
       for (int a = 0; a < 4; ++a) h->size[a] = m->hfield_size[4 * data + a];
     }
   }
+  if (it->config.auto_substeps) {  // here, not in the first step: about 1-2 ms, which no step should pay
+    vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
+    it->has_frequencies = 1;
+  }
   return it;
 }
 
