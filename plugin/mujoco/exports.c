@@ -7,6 +7,7 @@
 #include <time.h>
 
 #include "config.h"
+#include "state_layout.h"
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_skin.h"
@@ -60,6 +61,31 @@ VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out
   out[5] = config.rod.samples_per_segment;
   vsc_plugin_config_free(&config);
   return 0;
+}
+
+/// Number of blocks in an intestine's plugin_state (state_layout.h).
+VSC_EXPORT int viscera_state_block_count(void) { return VSC_STATE_BLOCK_COUNT; }
+
+/// Name of state block i (static storage), NULL if out of range.
+VSC_EXPORT const char* viscera_state_block_name(int i) {
+  return i >= 0 && i < VSC_STATE_BLOCK_COUNT ? vsc_state_block_names[i] : 0;
+}
+
+/// The plugin_state layout of intestine `instance`: offset[i] and size[i]
+/// (mjtNums, from the instance's plugin_stateadr) of block i, for i below
+/// viscera_state_block_count(). Returns the total, or -1 if the instance is
+/// not a viscera.intestine.
+VSC_EXPORT int viscera_intestine_layout(const mjModel* m, int instance, int* offset, int* size) {
+  vsc_plugin_config config;
+  if (read_intestine(m, instance, &config)) return -1;
+  vsc_state_layout l = vsc_state_layout_of(config.rod.control_count, config.rod.collision_sphere_count, (int)m->nbody,
+                                           config.grasp.count);
+  vsc_plugin_config_free(&config);
+  for (int b = 0; b < VSC_STATE_BLOCK_COUNT; ++b) {
+    offset[b] = l.offset[b];
+    size[b] = l.size[b];
+  }
+  return l.total;
 }
 
 typedef struct pass_count {

@@ -15,6 +15,7 @@
 #include <mujoco/mujoco.h>
 
 #include "cache_registry.h"
+#include "state_layout.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
@@ -198,28 +199,27 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   return it;
 }
 
-// Per grasper state: status, held abscissa s, the held point in the site's
-// frame (m, 3) so that taking hold moves nothing, slip count.
-#define GRASP_STATE_SIZE 6
+// Per grasper state (VSC_GRASP_STATE_SIZE, state_layout.h): status, held
+// abscissa s, the held point in the site's frame (m, 3) so that taking hold
+// moves nothing, slip count.
+#define GRASP_STATE_SIZE VSC_GRASP_STATE_SIZE
 enum { GRASP_OPEN = 0, GRASP_HOLDING = 1, GRASP_CLOSED_EMPTY = 2 };
 
-// plugin_state layout (see intestine.h): positions, velocities, divergence and
-// recovery counts, the wrench on every body, the friction state of every sphere.
-static int wrench_address(int n) { return 6 * n + 2; }
-static int stick_address(const mjModel* m, int n) { return wrench_address(n) + 6 * (int)m->nbody; }
-static int grasp_address(const mjModel* m, const vsc_plugin_config* c) {
-  return stick_address(m, c->rod.control_count) + VSC_STICK_SIZE * c->rod.collision_sphere_count;
+// plugin_state's blocks for this model and config (state_layout.h)
+static vsc_state_layout layout_of(const mjModel* m, const vsc_plugin_config* c) {
+  return vsc_state_layout_of(c->rod.control_count, c->rod.collision_sphere_count, (int)m->nbody, c->grasp.count);
 }
-static int config_state_size(const mjModel* m, const vsc_plugin_config* c) {
-  return grasp_address(m, c) + GRASP_STATE_SIZE * c->grasp.count;
-}
+static int block(const mjModel* m, const vsc_plugin_config* c, vsc_state_block b) { return layout_of(m, c).offset[b]; }
+static int config_state_size(const mjModel* m, const vsc_plugin_config* c) { return layout_of(m, c).total; }
 
 static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, const double* initial_q, mjtNum* state) {
   int n = c->rod.control_count;
   if (initial_q != state) memcpy(state, initial_q, sizeof(double) * 3 * (size_t)n);
-  memset(state + 3 * n, 0, sizeof(double) * (size_t)(stick_address(m, n) - 3 * n));
-  vsc_stick_clear(state + stick_address(m, n), c->rod.collision_sphere_count);
-  memset(state + grasp_address(m, c), 0, sizeof(double) * GRASP_STATE_SIZE * (size_t)c->grasp.count);
+  vsc_state_layout l = layout_of(m, c);
+  memset(state + l.offset[VSC_STATE_VELOCITIES], 0,
+         sizeof(double) * (size_t)(l.offset[VSC_STATE_FRICTION] - l.offset[VSC_STATE_VELOCITIES]));
+  vsc_stick_clear(state + l.offset[VSC_STATE_FRICTION], c->rod.collision_sphere_count);
+  memset(state + l.offset[VSC_STATE_GRASPS], 0, sizeof(double) * (size_t)l.size[VSC_STATE_GRASPS]);
 }
 
 // The caches of this data, from the registry (never from d->plugin_data, which
@@ -426,8 +426,7 @@ static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjt
 static void intestine_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
-  int n = it->config.rod.control_count;
-  const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + wrench_address(n);
+  const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + block(m, &it->config, VSC_STATE_WRENCHES);
   if (capability_bit == mjPLUGIN_SENSOR) {
     compute_sensors(m, d, instance, wrench);
     return;
@@ -555,18 +554,18 @@ static int step_substeps(const mjModel* m, intestine* it) {
 static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
-  int n = it->config.rod.control_count;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  vsc_state_layout l = layout_of(m, &it->config);
   if (!all_finite(state, m->plugin_statenum[instance])) {  // e.g. a bad mj_setState: start over
     mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
-    double count = isfinite(state[6 * n]) ? state[6 * n] : 0.0;
-    double recovered = isfinite(state[6 * n + 1]) ? state[6 * n + 1] : 0.0;
+    double count = isfinite(state[l.offset[VSC_STATE_DIVERGENCES]]) ? state[l.offset[VSC_STATE_DIVERGENCES]] : 0.0;
+    double recovered = isfinite(state[l.offset[VSC_STATE_RECOVERIES]]) ? state[l.offset[VSC_STATE_RECOVERIES]] : 0.0;
     write_initial_state(m, &it->config, it->initial_q, state);
-    state[6 * n] = count + 1.0;
-    state[6 * n + 1] = recovered;
+    state[l.offset[VSC_STATE_DIVERGENCES]] = count + 1.0;
+    state[l.offset[VSC_STATE_RECOVERIES]] = recovered;
     return;
   }
-  sanitize_stick(state + stick_address(m, n), it->config.rod.collision_sphere_count, it->geom_count);
+  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->geom_count);
   vsc_world world = {{0, 0, 0}, it->geoms, contacts_enabled(m) ? it->geom_count : 0};
   int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
   if (passive_off && world.geom_count > 0 && !it->warned_passive_off) {
@@ -589,16 +588,17 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   }
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
   world.geom_wrench = it->geom_wrench;
-  mjtNum* grasp_state = state + grasp_address(m, &it->config);
+  mjtNum* grasp_state = state + l.offset[VSC_STATE_GRASPS];
   world.grasps = it->grasps;
   world.grasp_count = update_grasps(m, d, it, state, grasp_state);
   vsc_step_options step = it->config.step;
   step.substeps = step_substeps(m, it);
   vsc_step_report report = {0, 0};
-  vsc_status status = vsc_rod_step(it->rod, &world, state, state + 3 * n, state + stick_address(m, n),
+  vsc_status status = vsc_rod_step(it->rod, &world, state + l.offset[VSC_STATE_POSITIONS],
+                                   state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
                                    m->opt.timestep, &step, &report);
   // the step's average reaction per body, as force and torque about its centre of mass
-  mjtNum* wrench = state + wrench_address(n);
+  mjtNum* wrench = state + l.offset[VSC_STATE_WRENCHES];
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
   for (int i = 0; i < world.geom_count; ++i) {
     const double* w = it->geom_wrench + 6 * i;
@@ -611,13 +611,13 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
   // warn at counts 1, 2, 4, 8...: no spam
   if (status == VSC_ERROR_DIVERGED) {
-    double count = state[6 * n] += 1.0;
+    double count = state[l.offset[VSC_STATE_DIVERGENCES]] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))
       mju_warning("viscera.intestine: state diverged at t = %g s even at %d substeps; positions restored, "
                   "velocities zeroed. Use integrator 'implicit', lower the timestep, raise 'substeps' or soften "
                   "'stretch_stiffness'/'contact_stiffness' (%g times so far)", d->time, report.substeps, count);
   } else if (report.retries > 0) {
-    double count = state[6 * n + 1] += 1.0;
+    double count = state[l.offset[VSC_STATE_RECOVERIES]] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))
       mju_warning("viscera.intestine: state diverged at t = %g s and held at %d substeps instead of %d; "
                   "raise 'substeps' or use integrator 'implicit' (%g recoveries so far)", d->time,

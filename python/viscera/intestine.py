@@ -1,17 +1,10 @@
 """Reading intestines out of MuJoCo models and data, and writing their MJCF.
 
-State layout of one ``viscera.intestine`` instance in ``data.plugin_state``
-(n control points, S collision spheres, B = model.nbody): positions ``[0, 3n)``
-(m, world frame, x y z per point), velocities ``[3n, 6n)`` (m/s), the
-divergence count ``[6n]`` (steps that diverged at every retry: positions
-restored, velocities zeroed), the recovery count ``[6n+1]`` (steps that
-diverged and held when retried with more substeps), then for every body the
-wrench the intestine exerted on it over the last step ``[6n+2, 6n+2+6B)`` (force N, torque N m about
-the body's centre of mass, world frame), then the friction state of every
-sphere (8 each: rigid partner, elongation m x3, self partner, elongation m x3),
-then for every grasper named in ``grasp_sites`` its hold (6 each: status 0 open,
-1 holding, 2 closed without a hold; held abscissa s in [0, 1]; held point in
-the site frame, m x3; slip count).
+The state of one ``viscera.intestine`` instance in ``data.plugin_state`` is
+laid out by the plugin (plugin/mujoco/state_layout.h, with units); Python reads
+its blocks by name from ``Intestine.layout`` (positions, velocities,
+divergences, recoveries, wrenches, friction, grasps) and never recomputes an
+offset.
 """
 
 from __future__ import annotations
@@ -64,6 +57,21 @@ def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
     return out if status == 0 else None
 
 
+def _layout(model: mujoco.MjModel, instance: int) -> dict[str, slice]:
+    """The blocks of the instance's plugin_state, by name, as the plugin lays them out (from C:
+    plugin/mujoco/state_layout.h): positions, velocities, divergences, recoveries, wrenches,
+    friction, grasps."""
+    library = _library.native()
+    count = library.viscera_state_block_count()
+    offset, size = np.zeros(count, dtype=np.int32), np.zeros(count, dtype=np.int32)
+    total = library.viscera_intestine_layout(ctypes.c_void_p(model._address), instance,
+                                             offset.ctypes.data_as(ctypes.c_void_p), size.ctypes.data_as(ctypes.c_void_p))
+    if total < 0:
+        raise RuntimeError(f"viscera: plugin instance {instance} is not a viscera.intestine")
+    return {library.viscera_state_block_name(b).decode(): slice(int(offset[b]), int(offset[b] + size[b]))
+            for b in range(count)}
+
+
 GRASP_STATUS = {0: "open", 1: "holding", 2: "closed"}
 
 
@@ -95,6 +103,7 @@ class Intestine:
     control_count: int
     sphere_count: int
     samples_per_segment: int
+    layout: Mapping[str, slice]  # plugin_state's blocks (offsets from the instance's plugin_stateadr)
 
     def _state(self, data: mujoco.MjData) -> np.ndarray:
         start = int(self.model.plugin_stateadr[self.instance])
@@ -102,13 +111,11 @@ class Intestine:
 
     def positions(self, data: mujoco.MjData) -> np.ndarray:
         """Control point positions (m, shape (n, 3)), a view into data.plugin_state."""
-        n = self.control_count
-        return self._state(data)[:3 * n].reshape(n, 3)
+        return self._state(data)[self.layout["positions"]].reshape(self.control_count, 3)
 
     def velocities(self, data: mujoco.MjData) -> np.ndarray:
         """Control point velocities (m/s, shape (n, 3)), a view into data.plugin_state."""
-        n = self.control_count
-        return self._state(data)[3 * n:6 * n].reshape(n, 3)
+        return self._state(data)[self.layout["velocities"]].reshape(self.control_count, 3)
 
     def body_wrench(self, data: mujoco.MjData, body: int | str) -> np.ndarray:
         """Force (N) and torque (N m, about the body's centre of mass), world frame, that the
@@ -116,8 +123,7 @@ class Intestine:
         body_id = body if isinstance(body, (int, np.integer)) else self.model.body(body).id
         if not 0 <= body_id < self.model.nbody:
             raise IndexError(f"body {body!r} is not a body of the model (0 to {self.model.nbody - 1})")
-        start = 6 * self.control_count + 2 + 6 * int(body_id)
-        return self._state(data)[start:start + 6].copy()
+        return self._state(data)[self.layout["wrenches"]][6 * int(body_id):6 * int(body_id) + 6].copy()
 
     @property
     def graspers(self) -> tuple[str, ...]:
@@ -126,11 +132,10 @@ class Intestine:
 
     def grasps(self, data: mujoco.MjData) -> list[Grasp]:
         """The hold of every grasper (in grasp_sites order)."""
-        start = 6 * self.control_count + 2 + 6 * self.model.nbody + 8 * self.sphere_count
-        state = self._state(data)
+        state = self._state(data)[self.layout["grasps"]].reshape(-1, 6)
         out = []
         for i, site in enumerate(self.graspers):
-            status, s, _, _, _, slips = state[start + 6 * i:start + 6 * i + 6]
+            status, s, _, _, _, slips = state[i]
             out.append(Grasp(site, GRASP_STATUS.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
         return out
 
@@ -155,12 +160,12 @@ class Intestine:
     def divergence_count(self, data: mujoco.MjData) -> int:
         """Steps since the last reset that diverged even at the most retried substeps: their
         positions were restored to the step start and their velocities zeroed."""
-        return int(self._state(data)[6 * self.control_count])
+        return int(self._state(data)[self.layout["divergences"]][0])
 
     def recovery_count(self, data: mujoco.MjData) -> int:
         """Steps since the last reset that diverged at the configured substeps and held when
         retried with more (up to 2**divergence_retries times as many)."""
-        return int(self._state(data)[6 * self.control_count + 1])
+        return int(self._state(data)[self.layout["recoveries"]][0])
 
     def axis_points(self, data: mujoco.MjData, count: int = 1000) -> np.ndarray:
         """`count` points of the axis, uniform in parametric abscissa (m, shape (count, 3))."""
@@ -192,7 +197,7 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
         config = {key: value.decode() for key, value in zip(names, values) if value}
         found.append(Intestine(model, instance, name, config, rest_length=float(info[0]), radius=float(info[1]),
                                mass=float(info[2]), control_count=int(info[3]), sphere_count=int(info[4]),
-                               samples_per_segment=int(info[5])))
+                               samples_per_segment=int(info[5]), layout=_layout(model, instance)))
     return found
 
 
