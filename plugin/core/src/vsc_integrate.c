@@ -90,37 +90,24 @@ static double exact_damping_correction(const vsc_rod* rod, double h) {
   return expm1(-ch) + ch;
 }
 
-static vsc_status symplectic_euler_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h,
-                                           double dt, const double** unseen) {
+// One force evaluation: drift q by `before` of the substep, kick v with the
+// forces there, drift the rest. Symplectic Euler kicks first (before = 0);
+// leapfrog drifts half, kicks, drifts half (before = 1/2): the midpoint
+// evaluation is what makes it second order at the same cost.
+static vsc_status drift_kick_drift(vsc_rod* rod, vsc_world* world, double* q, double* v, double h, double dt,
+                                   double before, const double** unseen) {
   int size = 3 * rod->n;
   double* a = rod->stage;
+  double first = before * h, second = (1.0 - before) * h;
+  if (before > 0.0)
+    for (int i = 0; i < size; ++i) q[i] += first * v[i];
   world->wrench_weight = h / dt;
   vsc_rod_acceleration(rod, world, q, v, a);
   double exact = exact_damping_correction(rod, h);
   for (int i = 0; i < size; ++i) {
     a[i] = h * a[i] + exact * v[i];  // now the velocity change
     v[i] += a[i];
-    q[i] += h * v[i];
-  }
-  *unseen = a;
-  return VSC_OK;
-}
-
-// Drift half a substep, kick with the forces there, drift the other half: the
-// midpoint evaluation is what makes it second order at symplectic Euler's cost.
-static vsc_status leapfrog_substep(vsc_rod* rod, vsc_world* world, double* q, double* v, double h, double dt,
-                                   const double** unseen) {
-  int size = 3 * rod->n;
-  double* a = rod->stage;
-  double half = 0.5 * h;
-  for (int i = 0; i < size; ++i) q[i] += half * v[i];
-  world->wrench_weight = h / dt;
-  vsc_rod_acceleration(rod, world, q, v, a);
-  double exact = exact_damping_correction(rod, h);
-  for (int i = 0; i < size; ++i) {
-    a[i] = h * a[i] + exact * v[i];  // now the velocity change
-    v[i] += a[i];
-    q[i] += half * v[i];
+    q[i] += second * v[i];
   }
   *unseen = a;
   return VSC_OK;
@@ -223,9 +210,9 @@ static vsc_status substep(vsc_integrator integrator, vsc_rod* rod, vsc_world* wo
                           double h, double dt, const double** unseen) {
   *unseen = NULL;
   switch (integrator) {
-    case VSC_INTEGRATOR_SYMPLECTIC_EULER: return symplectic_euler_substep(rod, world, q, v, h, dt, unseen);
+    case VSC_INTEGRATOR_SYMPLECTIC_EULER: return drift_kick_drift(rod, world, q, v, h, dt, 0.0, unseen);
     case VSC_INTEGRATOR_IMPLICIT: return implicit_substep(rod, world, q, v, h, dt, unseen);
-    case VSC_INTEGRATOR_LEAPFROG: return leapfrog_substep(rod, world, q, v, h, dt, unseen);
+    case VSC_INTEGRATOR_LEAPFROG: return drift_kick_drift(rod, world, q, v, h, dt, 0.5, unseen);
     case VSC_INTEGRATOR_RK4: return rk4_substep(rod, world, q, v, h, dt, unseen);
     default: return VSC_ERROR_INVALID_ARGUMENT;
   }
