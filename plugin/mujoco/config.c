@@ -21,7 +21,6 @@ const char* const vsc_plugin_attributes[] = {
     "mass_matrix"};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
-#define VSC_PI 3.14159265358979323846
 #define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
 
 typedef struct reader {
@@ -336,8 +335,8 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
       read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
       read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
-      read_count(&r, "substeps", 2, 1, 10000, &c->step.substeps) ||
-      read_count(&r, "divergence_retries", 4, 0, 10, &c->step.retries) ||
+      read_count(&r, "substeps", c->step.substeps, 1, 10000, &c->step.substeps) ||  // absent: chosen per step
+      read_count(&r, "divergence_retries", c->step.retries, 0, 10, &c->step.retries) ||
       read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
                  VSC_MAX_COLLISION_SPHERES, &d->collision_sphere_count);
   if (failed) return -1;

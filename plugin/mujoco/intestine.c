@@ -19,6 +19,7 @@
 #include "config.h"
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
+#include "viscera/vsc_skin.h"
 
 #define ERROR_SIZE 512
 
@@ -312,15 +313,6 @@ static void sanitize_stick(mjtNum* stick, int spheres, int geoms) {
   }
 }
 
-// out += (f, torque + arm x f): a force f (N) with a torque (N m, NULL: none)
-// about some point, as a wrench about the point `arm` (m) behind it.
-static void add_wrench(mjtNum out[6], const double f[3], const double* torque, const double arm[3]) {
-  for (int a = 0; a < 3; ++a) out[a] += f[a];
-  out[3] += (torque ? torque[0] : 0.0) + arm[1] * f[2] - arm[2] * f[1];
-  out[4] += (torque ? torque[1] : 0.0) + arm[2] * f[0] - arm[0] * f[2];
-  out[5] += (torque ? torque[2] : 0.0) + arm[0] * f[1] - arm[1] * f[0];
-}
-
 static int contacts_enabled(const mjModel* m) { return !(m->opt.disableflags & mjDSBL_CONTACT); }
 
 // Each tool force sensor reads 6 numbers (its body is checked in init: the
@@ -416,7 +408,7 @@ static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjt
     const mjtNum* origin = d->xpos + 3 * body;
     double arm[3] = {com[0] - origin[0], com[1] - origin[1], com[2] - origin[2]};
     memset(out, 0, sizeof(mjtNum) * 6);
-    add_wrench(out, w, w + 3, arm);
+    vsc_wrench_add(out, 1.0, w, w + 3, arm);
   }
 }
 
@@ -502,7 +494,7 @@ static void release_slipping_grasps(const mjModel* m, const mjData* d, intestine
     if (!all_finite(f, 3)) continue;
     const mjtNum* com = d->xipos + 3 * body;
     double arm[3] = {hold->anchor[0] - com[0], hold->anchor[1] - com[1], hold->anchor[2] - com[2]};
-    add_wrench(wrench + 6 * body, f, NULL, arm);
+    vsc_wrench_add(wrench + 6 * body, 1.0, f, NULL, arm);
     if (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] > g->slip_force * g->slip_force) {
       mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
       st[0] = GRASP_CLOSED_EMPTY;
@@ -606,7 +598,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     const mjtNum* com = d->xipos + 3 * body;
     double arm[3] = {it->geoms[i].position[0] - com[0], it->geoms[i].position[1] - com[1],
                      it->geoms[i].position[2] - com[2]};
-    add_wrench(wrench + 6 * body, w, w + 3, arm);
+    vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
   release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
   // warn at counts 1, 2, 4, 8...: no spam
@@ -638,7 +630,7 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   double r_min = it->config.radius_min, r_max = it->config.radius_max;
   for (int a = 0; a + 1 < samples; ++a) {
     double x = ((double)a + 0.5) / (double)(samples - 1) * (double)(n - 1), u = x - floor(x);
-    double c = cos(3.14159265358979323846 * u), radius = r_min + c * c * (r_max - r_min);
+    double radius = vsc_skin_radius(r_min, r_max, u);
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     mjvGeom* geom = scn->geoms + scn->ngeom;
     mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);

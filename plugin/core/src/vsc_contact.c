@@ -224,14 +224,8 @@ static void sphere_geom(void* context, int i) {
   if (normal <= 0.0) return;
   add_at_sphere(rod, i, f, p->Q);
   if (p->world->geom_wrench) {
-    double w = p->world->wrench_weight, *out = p->world->geom_wrench + 6 * p->geom;
     double arm[3] = {point[0] - geom->position[0], point[1] - geom->position[1], point[2] - geom->position[2]};
-    out[0] -= w * f[0];
-    out[1] -= w * f[1];
-    out[2] -= w * f[2];
-    out[3] -= w * (arm[1] * f[2] - arm[2] * f[1]);
-    out[4] -= w * (arm[2] * f[0] - arm[0] * f[2]);
-    out[5] -= w * (arm[0] * f[1] - arm[1] * f[0]);
+    vsc_wrench_add(p->world->geom_wrench + 6 * p->geom, -p->world->wrench_weight, f, NULL, arm);
   }
   record_touch(rod->touch + VSC_TOUCH_SIZE * i + RIGID, p->geom, normal, geom->friction, n, tangent, 0.0, 0.0);
   ++p->contacts;

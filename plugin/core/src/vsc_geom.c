@@ -241,6 +241,13 @@ double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal
   return d;
 }
 
+void vsc_wrench_add(double out[6], double scale, const double f[3], const double* torque, const double arm[3]) {
+  for (int a = 0; a < 3; ++a) out[a] += scale * f[a];
+  out[3] += scale * ((torque ? torque[0] : 0.0) + arm[1] * f[2] - arm[2] * f[1]);
+  out[4] += scale * ((torque ? torque[1] : 0.0) + arm[2] * f[0] - arm[0] * f[2]);
+  out[5] += scale * ((torque ? torque[2] : 0.0) + arm[0] * f[1] - arm[1] * f[0]);
+}
+
 void vsc_geom_point_velocity(const vsc_geom* g, const double p[3], double v[3]) {
   if (g->is_static) {
     v[0] = v[1] = v[2] = 0.0;

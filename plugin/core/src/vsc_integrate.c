@@ -142,13 +142,7 @@ static void correct_reactions(vsc_rod* rod, const vsc_world* world, const double
     const double* x = rod->sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
     const double* p = world->geoms[geom].position;
     double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
-    double* out = world->geom_wrench + 6 * geom;
-    out[0] -= weight * f[0];
-    out[1] -= weight * f[1];
-    out[2] -= weight * f[2];
-    out[3] -= weight * (arm[1] * f[2] - arm[2] * f[1]);
-    out[4] -= weight * (arm[2] * f[0] - arm[0] * f[2]);
-    out[5] -= weight * (arm[0] * f[1] - arm[1] * f[0]);
+    vsc_wrench_add(world->geom_wrench + 6 * geom, -weight, f, NULL, arm);
   }
 }
 

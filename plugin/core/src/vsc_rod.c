@@ -9,7 +9,6 @@
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
 
-#define VSC_PI 3.14159265358979323846
 
 vsc_rod_def vsc_default_rod_def(void) {
   vsc_rod_def def;

@@ -5,7 +5,11 @@
 
 #include "viscera/vsc_spline.h"
 
-#define VSC_PI 3.14159265358979323846
+
+double vsc_skin_radius(double radius_min, double radius_max, double u) {
+  double c = cos(VSC_PI * u);
+  return radius_min + c * c * (radius_max - radius_min);
+}
 
 vsc_skin_def vsc_default_skin_def(void) {
   vsc_skin_def def = {4, 16, 0.0125, 0.0125};
@@ -81,8 +85,7 @@ vsc_status vsc_skin_build(const double* q, int n, const vsc_skin_def* def, doubl
     normalise(k);
     double u = s * (double)(n - 1) - floor(s * (double)(n - 1));
     if (r == rings - 1) u = 1.0;
-    double c2 = cos(VSC_PI * u);
-    double radius = def->radius_min + c2 * c2 * (def->radius_max - def->radius_min);
+    double radius = vsc_skin_radius(def->radius_min, def->radius_max, u);
     for (int i = 0; i < m; ++i) {
       double angle = 2.0 * VSC_PI * (double)i / (double)m, ca = cos(angle), sa = sin(angle);
       double* v = vertices + 3 * (r * m + i);

@@ -27,6 +27,9 @@ typedef enum vsc_status {
 #define VSC_VECTOR_CLONES
 #endif
 
+/// pi, the one definition the core and the adapter use.
+#define VSC_PI 3.14159265358979323846
+
 /// Human-readable name of a status code (static storage, never NULL).
 const char* vsc_status_string(vsc_status status);
 

@@ -51,6 +51,12 @@ typedef struct vsc_geom {
 /// inside, and the outward unit normal at the closest surface point (world).
 double vsc_geom_distance(const vsc_geom* geom, const double point[3], double normal[3]);
 
+/// out += scale (f, torque + arm x f): a force f (N) with a torque (N m, NULL:
+/// none), as a wrench about a reference point `arm` (m) behind the force's point
+/// (out: force N, torque N m). The one wrench accumulation of the core and the
+/// plugin (scale -w: the reaction, weighted over a step).
+void vsc_wrench_add(double out[6], double scale, const double f[3], const double* torque, const double arm[3]);
+
 /// Velocity (m/s) of the geom's material point at world position `point`.
 void vsc_geom_point_velocity(const vsc_geom* geom, const double point[3], double velocity[3]);
 

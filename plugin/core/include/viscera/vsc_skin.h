@@ -31,6 +31,11 @@ typedef struct vsc_skin_def {
 /// 4 rings per segment, 16 points per ring, radius 12.5 mm.
 vsc_skin_def vsc_default_skin_def(void);
 
+/// The tube's radius (m) at fraction u in [0, 1] of a segment: radius_max at
+/// the control points (u = 0, 1), radius_min mid-segment, cos^2 between (the
+/// haustra-like bulges of the skin; the plugin draws its capsules with it too).
+double vsc_skin_radius(double radius_min, double radius_max, double u);
+
 /// Sizes of the arrays vsc_skin_build fills, for n control points.
 int vsc_skin_vertex_count(int n, const vsc_skin_def* def);
 int vsc_skin_triangle_count(int n, const vsc_skin_def* def);
