@@ -23,6 +23,25 @@ const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / siz
 
 #define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
 
+// Each enumerated key's names, indexed by its enum (designated initializers: a
+// name cannot drift from its value), NULL-terminated.
+static const char* const integrator_names[VSC_INTEGRATOR_COUNT + 1] = {
+    [VSC_INTEGRATOR_RK4] = "rk4", [VSC_INTEGRATOR_SYMPLECTIC_EULER] = "symplectic_euler",
+    [VSC_INTEGRATOR_IMPLICIT] = "implicit", [VSC_INTEGRATOR_LEAPFROG] = "leapfrog", NULL};
+static const char* const shape_names[] = {[VSC_SHAPE_LINE] = "line", [VSC_SHAPE_POLYLINE] = "polyline",
+                                          [VSC_SHAPE_SERPENTINE] = "serpentine",
+                                          [VSC_SHAPE_CONTROL_POINTS] = "control_points", NULL};
+static const char* const clamp_names[] = {"none", "start", "end", "both", NULL};  // bit 0: start, bit 1: end
+static const char* const mass_matrix_names[] = {"consistent", "lumped", NULL};    // vsc_rod_def.lumped_mass
+
+const char* const* vsc_plugin_allowed_values(const char* key) {
+  if (strcmp(key, "integrator") == 0) return integrator_names;
+  if (strcmp(key, "shape") == 0) return shape_names;
+  if (strcmp(key, "clamped") == 0) return clamp_names;
+  if (strcmp(key, "mass_matrix") == 0) return mass_matrix_names;
+  return NULL;
+}
+
 typedef struct reader {
   const mjModel* m;
   int instance;
@@ -66,6 +85,26 @@ static int parse_numbers(const char* text, double* out, int capacity) {
     ++count;
     p = end;
   }
+}
+
+// An enumerated key's value as its index in vsc_plugin_allowed_values (the
+// fallback when absent); on an unknown name the message lists the allowed ones.
+static int read_choice(reader* r, const char* key, int fallback, int* out) {
+  const char* text = raw(r, key);
+  const char* const* names = vsc_plugin_allowed_values(key);
+  *out = fallback;
+  if (!text) return 0;
+  for (int i = 0; names[i]; ++i)
+    if (strcmp(text, names[i]) == 0) {
+      *out = i;
+      return 0;
+    }
+  char allowed[256] = "";
+  for (int i = 0; names[i]; ++i) {
+    size_t used = strlen(allowed);
+    snprintf(allowed + used, sizeof(allowed) - used, "%s%s", i == 0 ? "" : (names[i + 1] ? ", " : " or "), names[i]);
+  }
+  return fail(r, "attribute '%s' = '%s' must be %s", key, text, allowed);
 }
 
 // A single finite number; `*present` says whether the key was given.
@@ -176,20 +215,11 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
 }
 
 static int read_shape(reader* r, vsc_plugin_config* c) {
-  const char* text = raw(r, "shape");
   static const double default_start[3] = {0.0, 0.0, 0.0}, default_direction[3] = {1.0, 0.0, 0.0};
   static const double no_box[6] = {0, 0, 0, 0, 0, 0};
-  if (!text || strcmp(text, "line") == 0) {
-    c->shape = VSC_SHAPE_LINE;
-  } else if (strcmp(text, "polyline") == 0) {
-    c->shape = VSC_SHAPE_POLYLINE;
-  } else if (strcmp(text, "serpentine") == 0) {
-    c->shape = VSC_SHAPE_SERPENTINE;
-  } else if (strcmp(text, "control_points") == 0) {
-    c->shape = VSC_SHAPE_CONTROL_POINTS;
-  } else {
-    return fail(r, "attribute 'shape' = '%s' must be one of line, polyline, serpentine, control_points", text);
-  }
+  int shape;
+  if (read_choice(r, "shape", VSC_SHAPE_LINE, &shape)) return -1;
+  c->shape = (vsc_shape_kind)shape;
   if (read_vector(r, "start", 3, default_start, c->start)) return -1;
   if (read_vector(r, "direction", 3, default_direction, c->direction)) return -1;
   double norm = sqrt(c->direction[0] * c->direction[0] + c->direction[1] * c->direction[1] +
@@ -371,27 +401,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
                 "nothing holds the intestine together");
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
     return fail(&r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(&r, "young_modulus"));
-  const char* integrator = raw(&r, "integrator");
-  // indexed by vsc_integrator, so a name and its enum cannot drift apart
-  static const char* const integrator_names[VSC_INTEGRATOR_COUNT] = {
-      [VSC_INTEGRATOR_RK4] = "rk4", [VSC_INTEGRATOR_SYMPLECTIC_EULER] = "symplectic_euler",
-      [VSC_INTEGRATOR_IMPLICIT] = "implicit", [VSC_INTEGRATOR_LEAPFROG] = "leapfrog"};
-  int chosen = integrator ? -1 : VSC_INTEGRATOR_LEAPFROG;
-  for (int i = 0; integrator && i < VSC_INTEGRATOR_COUNT; ++i)
-    if (strcmp(integrator, integrator_names[i]) == 0) chosen = i;
-  if (chosen < 0)
-    return fail(&r, "attribute 'integrator' = '%s' must be rk4, symplectic_euler, implicit or leapfrog", integrator);
-  c->step.integrator = (vsc_integrator)chosen;
-  const char* mass_matrix = raw(&r, "mass_matrix");
-  if (mass_matrix && strcmp(mass_matrix, "consistent") != 0 && strcmp(mass_matrix, "lumped") != 0)
-    return fail(&r, "attribute 'mass_matrix' = '%s' must be consistent or lumped", mass_matrix);
-  d->lumped_mass = !mass_matrix || strcmp(mass_matrix, "lumped") == 0;  // lumped unless told otherwise
-  const char* clamped = raw(&r, "clamped");
-  static const char* const clamp_names[4] = {"none", "start", "end", "both"};
-  int clamp = clamped ? -1 : 0;
-  for (int i = 0; clamped && i < 4; ++i)
-    if (strcmp(clamped, clamp_names[i]) == 0) clamp = i;
-  if (clamp < 0) return fail(&r, "attribute 'clamped' = '%s' must be none, start, end or both", clamped);
+  int integrator, lumped, clamp;
+  if (read_choice(&r, "integrator", VSC_INTEGRATOR_LEAPFROG, &integrator) ||
+      read_choice(&r, "mass_matrix", 1, &lumped) ||  // lumped unless told otherwise
+      read_choice(&r, "clamped", 0, &clamp))
+    return -1;
+  c->step.integrator = (vsc_integrator)integrator;
+  d->lumped_mass = lumped;
   d->clamp_start = clamp & 1;
   d->clamp_end = (clamp >> 1) & 1;
   // refuse absurd resolutions here, with the keys that set them, rather than

@@ -20,6 +20,12 @@ typedef enum vsc_shape_kind {
   VSC_SHAPE_CONTROL_POINTS  ///< `points` are the n control points themselves (e.g. a settled state)
 } vsc_shape_kind;
 
+/// The keys whose values are names from a fixed list (integrator, shape,
+/// clamped, mass_matrix): their allowed values, in enum order, NULL-terminated
+/// (static storage), or NULL for any other key. The one list per key that the
+/// parser, its refusal messages and the exported names read.
+const char* const* vsc_plugin_allowed_values(const char* key);
+
 /// Most grasping jaws one intestine serves.
 #define VSC_MAX_GRASPERS 8
 

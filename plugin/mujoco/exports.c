@@ -23,6 +23,17 @@ VSC_EXPORT const char* viscera_attribute_name(int i) {
   return i >= 0 && i < vsc_plugin_attribute_count ? vsc_plugin_attributes[i] : 0;
 }
 
+/// Allowed value i of an enumerated config key (integrator, shape, clamped,
+/// mass_matrix), in enum order (static storage); NULL past the last one or
+/// for a key that is not enumerated.
+VSC_EXPORT const char* viscera_allowed_value(const char* key, int i) {
+  const char* const* names = key ? vsc_plugin_allowed_values(key) : 0;
+  if (!names || i < 0) return 0;
+  for (int k = 0; k < i; ++k)
+    if (!names[k]) return 0;
+  return names[i];
+}
+
 /// Basis windows of `count` abscissae s (in [0, 1]) of an n-point spline:
 /// first[i] and weight[4 i .. 4 i + 3], as in vsc_spline_basis (a NaN s reads
 /// as 0). Returns 0, or -1 if n < 4.

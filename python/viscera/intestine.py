@@ -29,6 +29,16 @@ def attribute_names() -> tuple[str, ...]:
     return tuple(lib.viscera_attribute_name(i).decode() for i in range(lib.viscera_attribute_count()))
 
 
+def allowed_values(key: str) -> tuple[str, ...]:
+    """The names an enumerated config key accepts (integrator, shape, clamped, mass_matrix), as
+    the plugin defines them (one list per key, tied to its enum); () for any other key."""
+    library = _library.native()
+    names = []
+    while (name := library.viscera_allowed_value(key.encode(), len(names))) is not None:
+        names.append(name.decode())
+    return tuple(names)
+
+
 def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarray:
     """Points of the Catmull-Rom axis at parametric abscissae s in [0, 1] (m, shape (k, 3)).
 

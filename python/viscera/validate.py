@@ -276,7 +276,7 @@ def largest_stable_step(config: dict, integrator: str = "rk4") -> tuple[float, s
     return low, failure
 
 
-INTEGRATORS = ("rk4", "leapfrog", "symplectic_euler", "implicit")
+INTEGRATORS = viscera.allowed_values("integrator")  # the plugin's list
 
 
 class _quiet_warnings:

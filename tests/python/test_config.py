@@ -157,3 +157,25 @@ def test_spline_points_rejects_bad_input():
         viscera.spline_points(np.zeros((3, 3)), [0.5])
     with pytest.raises(ValueError, match="finite"):
         viscera.spline_points(np.zeros((5, 3)), [np.nan])
+
+
+@pytest.mark.parametrize("key,expected", [("integrator", ("rk4", "symplectic_euler", "implicit", "leapfrog")),
+                                          ("shape", ("line", "polyline", "serpentine", "control_points")),
+                                          ("clamped", ("none", "start", "end", "both")),
+                                          ("mass_matrix", ("consistent", "lumped"))])
+def test_enumerated_keys_have_one_list_that_parsing_and_refusals_read(key, expected):
+    """viscera.allowed_values reads the plugin's own list (tied to its enum): every name in it
+    loads where the key's other needs are met, and a wrong name is refused with all of them."""
+    import viscera
+    assert viscera.allowed_values(key) == expected
+    assert viscera.allowed_values("length") == ()
+    with pytest.raises(ValueError) as refused:
+        mujoco.MjModel.from_xml_string(scene_xml(**{key: "nonsense"}))
+    message = str(refused.value)
+    assert f"'{key}' = 'nonsense'" in message and all(name in message for name in expected)
+    needs = {"polyline": {"points": "0 0 0 4 0 0"}, "serpentine": {"box": "-1 -1 0 1 1 1"},
+             "control_points": {"points": " ".join(f"{x} 0 0" for x in np.linspace(0, 4, 250))},
+             "start": {"bending_rigidity": "0.01"}, "end": {"bending_rigidity": "0.01"},
+             "both": {"bending_rigidity": "0.01"}}
+    for name in expected:
+        mujoco.MjModel.from_xml_string(scene_xml(**{key: name}, **needs.get(name, {})))

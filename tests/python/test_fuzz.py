@@ -55,9 +55,7 @@ FLOAT_KEYS = ("length", "mass", "density", "radius", "radius_min", "radius_max",
               "wall_thickness", "bending_rigidity")
 COUNT_KEYS = ("control_points", "substeps", "collision_spheres", "samples_per_segment", "self_collision",
               "skin_rings_per_segment", "skin_ring_points", "mesentery_points", "divergence_retries")
-ENUMS = {"integrator": ("rk4", "symplectic_euler", "implicit"), "shape": ("line", "polyline", "serpentine",
-         "control_points"), "clamped": ("none", "start", "end", "both"),
-         "mass_matrix": ("consistent", "lumped")}
+ENUMS = {key: viscera.allowed_values(key) for key in ("integrator", "shape", "clamped", "mass_matrix")}
 VECTORS = {"start": 3, "direction": 3, "box": 6, "mesentery_root": 6}
 NAME_KEYS = ("grasp_sites", "grasp_joints")
 # every key has a generator below (a new key must get one)
