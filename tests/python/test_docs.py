@@ -1,0 +1,32 @@
+"""The documentation: the README stays a front page, and the pages build into a site strictly."""
+
+import re
+import subprocess
+import sys
+
+import pytest
+
+from test_package import ROOT
+
+
+def test_the_readme_is_a_front_page_whose_links_resolve():
+    """At most 200 lines: what viscera is, the two commands, the pictures, one example, links.
+    Every relative link and picture of the README and the pages points at a file of the tree."""
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 200
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text()):
+            if "://" in target:
+                continue
+            assert (page.parent / target).exists(), f"{page.relative_to(ROOT)} links to a missing {target}"
+
+
+def test_the_site_builds_strictly(tmp_path):
+    """mkdocs build --strict: no broken link, no page left out of the navigation."""
+    pytest.importorskip("mkdocs")  # the [test] extra installs it
+    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300,
+                          env={"NO_MKDOCS_2_WARNING": "1", "PATH": "/usr/bin:/bin"})
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (tmp_path / "site" / "index.html").exists()
+    assert (tmp_path / "site" / "configuration" / "index.html").exists()
