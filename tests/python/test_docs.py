@@ -30,3 +30,16 @@ def test_the_site_builds_strictly(tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     assert (tmp_path / "site" / "index.html").exists()
     assert (tmp_path / "site" / "configuration" / "index.html").exists()
+
+
+def test_the_pages_tables_match_their_results_json():
+    """The tables of measured figures (stability map, stiff cases, speed against accuracy, cost per
+    substep, the fall, the cavity's speed) are generated from the committed results JSON by
+    docs/tables.py: a page edited by hand, or a JSON rerun without regenerating, fails here."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("tables", ROOT / "docs" / "tables.py")
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
+    assert tables.main(["--check"]) == 0
+    page = (ROOT / "docs" / "validation.md").read_text()
+    assert "<!-- table: stability_map -->" in page and "<!-- table: speed_against_accuracy -->" in page

@@ -1,0 +1,147 @@
+"""The pages' tables of measured figures, generated from the results JSON, never copied by hand.
+
+    python docs/tables.py            # rewrite every generated table in docs/*.md
+    python docs/tables.py --check    # exit 1 if a page differs from its JSON (tests/python/test_docs.py)
+
+A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
+is a function below, fed by docs/validation/results.json (python -m viscera.validate),
+docs/bench/results.json (python -m viscera.bench --json) or docs/bench/cavity.json
+(python -m viscera.bench_cavity --json).
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import re
+import sys
+
+DOCS = pathlib.Path(__file__).resolve().parent
+MARK = re.compile(r"(<!-- table: (\w+) -->\n)(.*?)(<!-- end table -->)", re.S)
+NAMES = {"rk4": "RK4", "leapfrog": "leapfrog", "symplectic_euler": "symplectic Euler", "implicit": "implicit"}
+
+
+def _json(relative: str) -> dict:
+    return json.loads((DOCS / relative).read_text())
+
+
+def _rows(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows]) + "\n"
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:.3g}"
+
+
+def stability_map() -> str:
+    maps = _json("validation/results.json")["stability_map"]
+
+    def column(integrator, key, label):
+        rows = maps[integrator][key]
+        if all(r["failure"].startswith("stable at") for r in rows):
+            return "stable at 20 ms at every " + ("stiffness" if "stiffness" in label else "resolution")
+        return ", ".join(_ms(r["largest_step_s"]) for r in rows) + " ms"
+    out = []
+    for key, label, what in (("against_stretch_stiffness", "stretch_stiffness", "stretch stiffness {} N/m (250 points)"),
+                             ("against_control_points", "control_points", "control points {} (default stiffness)")):
+        values = ", ".join(str(r[label]) for r in maps["rk4"][key])
+        out.append([what.format(values)] + [column(i, key, label) for i in maps])
+    return _rows([""] + [NAMES.get(i, i) for i in maps], out)
+
+
+def stiff_cases() -> str:
+    rows = _json("validation/results.json")["stiff_comparison"]
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    integrators = list(dict.fromkeys(r["integrator"] for r in rows))
+    out = []
+    for case in cases:
+        cells = []
+        for integrator in integrators:
+            r = next(r for r in rows if r["case"] == case and r["integrator"] == integrator)
+            cells.append(f"{r['substeps']} substeps: {r['relative_error']:.2e}, {r['wall_s_per_sim_s']:.3f} wall s/sim s"
+                         if r["substeps"] else "diverged at every count tried")
+        out.append([case] + cells)
+    return _rows(["case"] + [NAMES.get(i, i) for i in integrators], out)
+
+
+def speed_against_accuracy() -> str:
+    accuracy = _json("validation/results.json")["integrator_accuracy"]
+    integrators = list(accuracy)
+    steps = [r["step_s"] for r in accuracy[integrators[0]]]
+    out = []
+    for k, step in enumerate(steps):
+        cells = []
+        for integrator in integrators:
+            r = accuracy[integrator][k]
+            cells.append("diverges" if r["diverged"] else f"{r['error_over_amplitude']:.1e} ({r['wall_s_per_sim_s']:.3f})")
+        out.append([f"{step * 1e3:g} ms"] + cells)
+    return _rows(["step"] + [NAMES.get(i, i) for i in integrators], out)
+
+
+def cost_per_substep() -> str:
+    cost = _json("validation/results.json")["cost_per_step"]
+    first = next(iter(cost.values()))["rows"]
+    header = ["control points"] + [str(r["control_points"]) for r in first] + ["log-log slope"]
+    out = [[f"{NAMES.get(i, i)} (us)"] + [f"{r['seconds_per_substep'] * 1e6:.0f}" for r in table["rows"]] +
+           [f"{table['slope']:.2f}"] for i, table in cost.items()]
+    return _rows(header, out)
+
+
+FALL_LABELS = {"viscera": "viscera, self-collision on", "viscera_noself": "viscera, self-collision off",
+               "flexcomp": "MuJoCo flexcomp, selfcollide none", "flexcomp_self": "MuJoCo flexcomp, selfcollide auto"}
+
+
+def fall() -> str:
+    bench = _json("bench/results.json")
+    out = [[FALL_LABELS.get(name, name), f"{p['wall_s_per_sim_s_median']:.3g}", f"{p['length_error'] * 100:+.2f} %"]
+           for name, p in bench["peers"].items()]
+    out.append([f"**viscera with self-collision: {bench['speedup_vs_flexcomp_selfcollide']:.1f}x faster than the "
+                f"flexcomp with it, {bench['speedup_vs_flexcomp']:.1f}x than without**", "", ""])
+    return _rows(["", "wall s per simulated s", "length error"], out)
+
+
+CAVITY_LABELS = {"full": "full: 250 points, self-collision, tools, grasping (leapfrog, lumped mass, 3 substeps)",
+                 "RK4, consistent mass": "RK4, consistent mass (the previous defaults, 2 substeps)",
+                 "consistent mass": "leapfrog, consistent mass (4 substeps)",
+                 "spheres 1.5 r": "collision spheres 1.5 r apart (161, not 241)",
+                 "rigid only": "rigid only (MuJoCo without the intestine)"}
+
+
+def cavity_speed() -> str:
+    loads = _json("bench/cavity.json")["loads"]
+    header = ["variant"]
+    for load in loads:
+        header += [f"{load}: wall s / sim s", "p50 (ms)", "p99 (ms)", "p99.9 (ms)"]
+    variants = list(next(iter(loads.values()))["variants"])
+    out = []
+    for v in variants:
+        row = [CAVITY_LABELS.get(v, v)]
+        for load in loads.values():
+            r = load["variants"][v]
+            row += [f"{r['wall_s_per_sim_s']:.3f}", f"{r['p50_ms']:.3f}", f"{r['p99_ms']:.3f}", f"{r['p999_ms']:.3f}"]
+        out.append(row)
+    return _rows(header, out)
+
+
+def render(text: str) -> str:
+    return MARK.sub(lambda m: m.group(1) + globals()[m.group(2)]() + m.group(4), text)
+
+
+def main(argv: list[str]) -> int:
+    stale = []
+    for page in sorted(DOCS.rglob("*.md")):
+        text = page.read_text()
+        new = render(text)
+        if new != text:
+            stale.append(page.name)
+            if "--check" not in argv:
+                page.write_text(new)
+    if "--check" in argv and stale:
+        print(f"tables differ from their JSON in {', '.join(stale)}: run python docs/tables.py", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
