@@ -8,10 +8,7 @@
 
 #include "config.h"
 #include "state_layout.h"
-#include "viscera/vsc_grid.h"
-#include "viscera/vsc_integrate.h"
-#include "viscera/vsc_skin.h"
-#include "viscera/vsc_spline.h"
+#include "viscera/viscera.h"  // the core's whole public API: a check that the umbrella compiles
 
 #define VSC_EXPORT __attribute__((visibility("default")))
 
