@@ -252,6 +252,10 @@ static void divergence_keeps_state_finite(void) {
   vsc_step_options options = vsc_default_step_options();
   options.retries = 2;
   vsc_step_report report;
+  vsc_step_options unknown = options;
+  unknown.integrator = (vsc_integrator)VSC_INTEGRATOR_COUNT;  // no such integrator: refused, nothing moved
+  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, 0.002, &unknown, &report) == VSC_ERROR_INVALID_ARGUMENT);
+  ENSURE(memcmp(q, q0, sizeof(q)) == 0);
   ENSURE(vsc_rod_step(rod, &world, q, v, NULL, 0.002, &options, &report) == VSC_ERROR_DIVERGED);
   ENSURE(report.retries == 2 && report.substeps == 4);
   ENSURE(memcmp(q, q0, sizeof(q)) == 0);

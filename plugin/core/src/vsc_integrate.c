@@ -242,7 +242,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
                         const vsc_step_options* options, vsc_step_report* report) {
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
-      !(o.energy_jump_speed >= 0.0))
+      !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
     return VSC_ERROR_INVALID_ARGUMENT;
   vsc_world step_world = *world;
   step_world.stick = stick;
