@@ -15,6 +15,7 @@
 #include <mujoco/mujoco.h>
 
 #include "cache_registry.h"
+#include "geoms.h"
 #include "state_layout.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
@@ -23,21 +24,13 @@
 
 #define ERROR_SIZE 512
 
-// Intestine collision filter, MuJoCo's rule: contype & conaffinity' || contype' & conaffinity.
-#define INTESTINE_CONTYPE 1
-#define INTESTINE_CONAFFINITY 1
-
 typedef struct intestine {
   const mjModel* model;   // the model these caches were built for
   vsc_plugin_config config;
   vsc_rod* rod;
   double* initial_q;      // initial control points (m, 3n)
-  int* geom_ids;          // MuJoCo geoms that may touch the intestine (geom_count)
-  vsc_geom* geoms;        // their world description, refreshed each call (geom_count)
-  int geom_count;
-  double* geom_wrench;    // reaction on each geom, averaged over a step (6 x geom_count)
-  vsc_convex* convex;     // hulls of mesh geoms (geom_count, face_count 0 elsewhere)
-  vsc_heightfield* heightfield;  // height fields (geom_count)
+  vsc_mujoco_geoms world;  // the MuJoCo geoms that may touch the intestine (geoms.h)
+  double* geom_wrench;    // reaction on each of them, averaged over a step (6 x world.count)
   int warned_passive_off; // the passive-off warning was given for this data
   int checked_start;      // the first step of this data looked for a start inside a geom
   int has_frequencies;    // 1: the two below are computed
@@ -47,90 +40,12 @@ typedef struct intestine {
   int grasp_owner[VSC_MAX_GRASPERS];   // which grasper each hold belongs to
 } intestine;
 
-// Every MuJoCo geom type collides: meshes as their convex hull (exact
-// distance), height fields by vertical distance, SDF geoms as their bounding
-// sphere (the paper's sphere approximation: an SDF plugin's distance is dear).
-static vsc_geom_type geom_type(int mujoco_type, int* supported) {
-  *supported = 1;
-  switch (mujoco_type) {
-    case mjGEOM_PLANE: return VSC_GEOM_PLANE;
-    case mjGEOM_SPHERE: return VSC_GEOM_SPHERE;
-    case mjGEOM_CAPSULE: return VSC_GEOM_CAPSULE;
-    case mjGEOM_CYLINDER: return VSC_GEOM_CYLINDER;
-    case mjGEOM_BOX: return VSC_GEOM_BOX;
-    case mjGEOM_ELLIPSOID: return VSC_GEOM_ELLIPSOID;
-    case mjGEOM_MESH: return VSC_GEOM_CONVEX;
-    case mjGEOM_HFIELD: return VSC_GEOM_HEIGHTFIELD;
-    case mjGEOM_SDF: return VSC_GEOM_SPHERE;
-    default: *supported = 0; return VSC_GEOM_PLANE;
-  }
-}
-
-// The convex hull of a mesh as outward face planes and triangles, from
-// MuJoCo's hull graph (numvert, numface, vert_edgeadr, vert_globalid,
-// edge_localid, face_globalid), or from the mesh faces if it has none.
-static int build_convex(const mjModel* m, int mesh, vsc_convex* out) {
-  const float* vert = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
-  const int* faces;
-  int count;
-  if (m->mesh_graphadr[mesh] >= 0) {
-    const int* graph = m->mesh_graph + m->mesh_graphadr[mesh];
-    int numvert = graph[0];
-    count = graph[1];
-    faces = graph + 2 + numvert + numvert + (numvert + 3 * count);
-  } else {
-    count = m->mesh_facenum[mesh];
-    faces = m->mesh_face + 3 * m->mesh_faceadr[mesh];
-  }
-  double* planes = (double*)malloc(sizeof(double) * 4 * (size_t)(count > 0 ? count : 1));
-  double* triangles = (double*)malloc(sizeof(double) * 9 * (size_t)(count > 0 ? count : 1));
-  if (!planes || !triangles) {
-    free(planes);
-    free(triangles);
-    return -1;
-  }
-  double centre[3] = {0, 0, 0};
-  for (int f = 0; f < count; ++f)
-    for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a) centre[a] += vert[3 * faces[3 * f + k] + a] / (3.0 * count);
-  int kept = 0;
-  for (int f = 0; f < count; ++f) {
-    double* t = triangles + 9 * kept;
-    for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a) t[3 * k + a] = vert[3 * faces[3 * f + k] + a];
-    double u[3], v[3], n[3];
-    for (int a = 0; a < 3; ++a) { u[a] = t[3 + a] - t[a]; v[a] = t[6 + a] - t[a]; }
-    n[0] = u[1] * v[2] - u[2] * v[1];
-    n[1] = u[2] * v[0] - u[0] * v[2];
-    n[2] = u[0] * v[1] - u[1] * v[0];
-    double norm = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (!(norm > 0.0)) continue;  // degenerate face
-    double out_side = n[0] * (t[0] - centre[0]) + n[1] * (t[1] - centre[1]) + n[2] * (t[2] - centre[2]);
-    double sign = out_side < 0.0 ? -1.0 : 1.0;  // orient outwards
-    double* pl = planes + 4 * kept;
-    for (int a = 0; a < 3; ++a) pl[a] = sign * n[a] / norm;
-    pl[3] = pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2];
-    ++kept;
-  }
-  out->face_count = kept;
-  out->planes = planes;
-  out->triangles = triangles;
-  return 0;
-}
-
 static void intestine_free(intestine* it) {
   if (!it) return;
-  for (int i = 0; it->convex && i < it->geom_count; ++i) {
-    free((void*)it->convex[i].planes);
-    free((void*)it->convex[i].triangles);
-  }
-  free(it->convex);
-  free(it->heightfield);
+  vsc_mujoco_geoms_free(&it->world);
   vsc_rod_destroy(it->rod);
   vsc_plugin_config_free(&it->config);
   free(it->initial_q);
-  free(it->geom_ids);
-  free(it->geoms);
   free(it->geom_wrench);
   free(it);
 }
@@ -146,10 +61,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   it->model = m;
   int n = it->config.rod.control_count;
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
-  it->geom_ids = (int*)malloc(sizeof(int) * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
-  it->geoms = (vsc_geom*)calloc((size_t)(m->ngeom > 0 ? m->ngeom : 1), sizeof(vsc_geom));
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
-  if (!it->initial_q || !it->geom_ids || !it->geoms || !it->geom_wrench) {
+  if (!it->initial_q || !it->geom_wrench || vsc_mujoco_geoms_create(m, &it->world)) {
     strcpy(error, "viscera.intestine: out of memory");
     intestine_free(it);
     return NULL;
@@ -164,34 +77,6 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     snprintf(error, ERROR_SIZE, "viscera.intestine: cannot build the rod: %s", vsc_status_string(status));
     intestine_free(it);
     return NULL;
-  }
-  for (int g = 0; g < m->ngeom; ++g) {
-    int supported;
-    geom_type(m->geom_type[g], &supported);
-    int filtered = (m->geom_contype[g] & INTESTINE_CONAFFINITY) || (m->geom_conaffinity[g] & INTESTINE_CONTYPE);
-    if (supported && filtered) it->geom_ids[it->geom_count++] = g;
-  }
-  it->convex = (vsc_convex*)calloc((size_t)(it->geom_count > 0 ? it->geom_count : 1), sizeof(vsc_convex));
-  it->heightfield = (vsc_heightfield*)calloc((size_t)(it->geom_count > 0 ? it->geom_count : 1), sizeof(vsc_heightfield));
-  if (!it->convex || !it->heightfield) {
-    strcpy(error, "viscera.intestine: out of memory");
-    intestine_free(it);
-    return NULL;
-  }
-  for (int i = 0; i < it->geom_count; ++i) {
-    int g = it->geom_ids[i], data = m->geom_dataid[g];
-    if (m->geom_type[g] == mjGEOM_MESH && data >= 0 && build_convex(m, data, &it->convex[i])) {
-      strcpy(error, "viscera.intestine: out of memory");
-      intestine_free(it);
-      return NULL;
-    }
-    if (m->geom_type[g] == mjGEOM_HFIELD && data >= 0) {
-      vsc_heightfield* h = &it->heightfield[i];
-      h->rows = m->hfield_nrow[data];
-      h->columns = m->hfield_ncol[data];
-      h->elevation = m->hfield_data + m->hfield_adr[data];
-      for (int a = 0; a < 4; ++a) h->size[a] = m->hfield_size[4 * data + a];
-    }
   }
   if (it->config.auto_substeps) {  // here, not in the first step: about 1-2 ms, which no step should pay
     vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
@@ -250,51 +135,6 @@ static intestine* caches(const mjModel* m, mjData* d, int instance) {
   intestine_free((intestine*)replaced);
   d->plugin_data[instance] = (uintptr_t)fresh;  // informative only
   return fresh;
-}
-
-// World description of the candidate geoms from the current mjData.
-static void update_geoms(const mjModel* m, const mjData* d, intestine* it) {
-  for (int i = 0; i < it->geom_count; ++i) {
-    int g = it->geom_ids[i], supported;
-    vsc_geom* out = &it->geoms[i];
-    out->type = geom_type(m->geom_type[g], &supported);
-    for (int c = 0; c < 3; ++c) {
-      out->position[c] = d->geom_xpos[3 * g + c];
-      out->size[c] = m->geom_size[3 * g + c];
-    }
-    for (int c = 0; c < 9; ++c) out->rotation[c] = d->geom_xmat[9 * g + c];
-    out->bound_radius = m->geom_type[g] == mjGEOM_PLANE ? 0.0 : m->geom_rbound[g];
-    out->convex = &it->convex[i];
-    out->heightfield = &it->heightfield[i];
-    if (m->geom_type[g] == mjGEOM_SDF) out->size[0] = m->geom_rbound[g];  // bounding sphere
-    out->friction = it->config.friction >= 0.0 ? it->config.friction : m->geom_friction[3 * g];
-    const mjtNum* aabb = m->geom_aabb + 6 * g;  // local centre and half sizes
-    for (int a = 0; a < 3; ++a) {
-      const mjtNum* row = out->rotation + 3 * a;
-      double centre = out->position[a] + row[0] * aabb[0] + row[1] * aabb[1] + row[2] * aabb[2];
-      double half = fabs(row[0]) * aabb[3] + fabs(row[1]) * aabb[4] + fabs(row[2]) * aabb[5];
-      if (m->geom_type[g] == mjGEOM_SDF) {  // collides as its bounding sphere: that is its box
-        centre = out->position[a];
-        half = m->geom_rbound[g];
-      }
-      out->box[a] = centre - half;
-      out->box[3 + a] = centre + half;
-    }
-    if (m->body_dofnum[m->geom_bodyid[g]] == 0 && m->body_mocapid[m->geom_bodyid[g]] < 0 &&
-        m->body_weldid[m->geom_bodyid[g]] == 0) {
-      memset(out->linear_velocity, 0, sizeof(out->linear_velocity));  // static geom
-      memset(out->angular_velocity, 0, sizeof(out->angular_velocity));
-      out->is_static = 1;
-    } else {
-      mjtNum velocity[6];  // rotation then translation, world frame, at the geom origin
-      mj_objectVelocity(m, d, mjOBJ_GEOM, g, velocity, 0);
-      out->is_static = 0;
-      for (int c = 0; c < 3; ++c) {
-        out->angular_velocity[c] = velocity[c];
-        out->linear_velocity[c] = velocity[3 + c];
-      }
-    }
-  }
 }
 
 static int all_finite(const mjtNum* x, int size) {
@@ -513,7 +353,7 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
   vsc_deepest_contact deepest;
   vsc_rod_contact_energy(it->rod, world, q, &deepest);
   if (!(deepest.depth > 0.1 * it->config.rod.radius) || deepest.geom < 0) return;
-  int g = it->geom_ids[deepest.geom];
+  int g = it->world.ids[deepest.geom];
   const char* name = mj_id2name(m, mjOBJ_GEOM, g);
   char unnamed[32];
   if (!name) {
@@ -557,8 +397,8 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
     state[l.offset[VSC_STATE_RECOVERIES]] = recovered;
     return;
   }
-  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->geom_count);
-  vsc_world world = {{0, 0, 0}, it->geoms, contacts_enabled(m) ? it->geom_count : 0};
+  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->world.count);
+  vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
   int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
   if (passive_off && world.geom_count > 0 && !it->warned_passive_off) {
     // mj_passive returns before plugin compute when both are off
@@ -568,17 +408,17 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   }
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
     for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
-  if (world.geom_count > 0) update_geoms(m, d, it);
+  if (world.geom_count > 0) vsc_mujoco_geoms_update(m, d, it->config.friction, &it->world);
   if (!it->checked_start) {
     // once per data, at its first step: init also runs inside MuJoCo's compiler,
     // on a model whose flags are not the scene's
-    if (!contacts_enabled(m) && it->geom_count > 0)  // honoured (it passes through them), but rarely meant
+    if (!contacts_enabled(m) && it->world.count > 0)  // honoured (it passes through them), but rarely meant
       mju_warning("viscera.intestine: the model disables contacts (<flag contact=\"disable\"/>): the "
                   "intestine passes through every geom (its self-collision is its own config key, "
                   "'self_collision')");
     warn_start_inside(m, it, &world, state);
   }
-  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->geom_count);
+  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
   world.geom_wrench = it->geom_wrench;
   mjtNum* grasp_state = state + l.offset[VSC_STATE_GRASPS];
   world.grasps = it->grasps;
@@ -594,10 +434,10 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
   for (int i = 0; i < world.geom_count; ++i) {
     const double* w = it->geom_wrench + 6 * i;
-    int g = it->geom_ids[i], body = m->geom_bodyid[g];
+    int g = it->world.ids[i], body = m->geom_bodyid[g];
     const mjtNum* com = d->xipos + 3 * body;
-    double arm[3] = {it->geoms[i].position[0] - com[0], it->geoms[i].position[1] - com[1],
-                     it->geoms[i].position[2] - com[2]};
+    double arm[3] = {it->world.geoms[i].position[0] - com[0], it->world.geoms[i].position[1] - com[1],
+                     it->world.geoms[i].position[2] - com[2]};
     vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
   release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
