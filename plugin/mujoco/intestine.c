@@ -16,6 +16,7 @@
 
 #include "cache_registry.h"
 #include "geoms.h"
+#include "grasps.h"
 #include "state_layout.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
@@ -36,8 +37,7 @@ typedef struct intestine {
   int has_frequencies;    // 1: the two below are computed
   double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies
   double contact_frequency;
-  vsc_grasp grasps[VSC_MAX_GRASPERS];  // the holds of this step
-  int grasp_owner[VSC_MAX_GRASPERS];   // which grasper each hold belongs to
+  vsc_mujoco_holds holds;  // this step's holds (grasps.h)
 } intestine;
 
 static void intestine_free(intestine* it) {
@@ -84,12 +84,6 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   }
   return it;
 }
-
-// Per grasper state (VSC_GRASP_STATE_SIZE, state_layout.h): status, held
-// abscissa s, the held point in the site's frame (m, 3) so that taking hold
-// moves nothing, slip count.
-#define GRASP_STATE_SIZE VSC_GRASP_STATE_SIZE
-enum { GRASP_OPEN = 0, GRASP_HOLDING = 1, GRASP_CLOSED_EMPTY = 2 };
 
 // plugin_state's blocks for this model and config (state_layout.h)
 static vsc_state_layout layout_of(const mjModel* m, const vsc_plugin_config* c) {
@@ -272,77 +266,6 @@ static void intestine_compute(const mjModel* m, mjData* d, int instance, int cap
   }
 }
 
-// Jaws take and lose their hold: a closing jaw (open, now at or below
-// closed_below) holds the axis point nearest its site if within reach, else it
-// stays closed empty; an opening jaw lets go. Fills it->grasps with this
-// step's holds (anchors at the step start) and returns their count.
-static int update_grasps(const mjModel* m, mjData* d, intestine* it, const mjtNum* q, mjtNum* grasp_state) {
-  const vsc_grasper_config* g = &it->config.grasp;
-  int holds = 0;
-  for (int i = 0; i < g->count; ++i) {
-    mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
-    int site = g->site[i];
-    const mjtNum* origin = d->site_xpos + 3 * site;
-    const mjtNum* rotation = d->site_xmat + 9 * site;  // site to world, row major
-    int closed = d->qpos[m->jnt_qposadr[g->joint[i]]] <= g->closed_below;
-    if (!closed) {
-      st[0] = GRASP_OPEN;
-      continue;
-    }
-    if (st[0] == GRASP_OPEN) {  // closing now: take the nearest axis point within reach
-      double s, point[3];
-      double distance = vsc_rod_nearest_abscissa(it->rod, q, origin, &s);
-      st[0] = GRASP_CLOSED_EMPTY;
-      if (distance <= g->reach) {
-        vsc_basis basis = vsc_spline_basis(it->config.rod.control_count, s);
-        vsc_basis_point(&basis, q, point);
-        double offset[3] = {point[0] - origin[0], point[1] - origin[1], point[2] - origin[2]};
-        st[0] = GRASP_HOLDING;
-        st[1] = s;
-        for (int a = 0; a < 3; ++a)  // world offset into the site frame: R^T offset
-          st[2 + a] = rotation[a] * offset[0] + rotation[3 + a] * offset[1] + rotation[6 + a] * offset[2];
-      }
-    }
-    if (st[0] != GRASP_HOLDING) continue;
-    vsc_grasp* hold = &it->grasps[holds];
-    it->grasp_owner[holds++] = i;
-    hold->abscissa = st[1] < 0.0 ? 0.0 : (st[1] > 1.0 ? 1.0 : st[1]);
-    mjtNum arm[3], velocity[6];
-    mju_mulMatVec3(arm, rotation, st + 2);
-    mj_objectVelocity(m, d, mjOBJ_SITE, site, velocity, 0);  // rotation, translation; world frame
-    for (int a = 0; a < 3; ++a) hold->anchor[a] = origin[a] + arm[a];
-    hold->anchor_velocity[0] = velocity[3] + velocity[1] * arm[2] - velocity[2] * arm[1];
-    hold->anchor_velocity[1] = velocity[4] + velocity[2] * arm[0] - velocity[0] * arm[2];
-    hold->anchor_velocity[2] = velocity[5] + velocity[0] * arm[1] - velocity[1] * arm[0];
-    hold->stiffness = g->stiffness;
-    hold->damping = g->damping;
-    hold->reaction[0] = hold->reaction[1] = hold->reaction[2] = 0.0;
-  }
-  return holds;
-}
-
-// After the step: each hold's reaction goes to its jaw's body (force at the
-// anchor); a hold that pulled harder than slip_force slips out of the jaw
-// (the jaw stays closed empty until it opens).
-static void release_slipping_grasps(const mjModel* m, const mjData* d, intestine* it, int holds,
-                                    mjtNum* grasp_state, mjtNum* wrench) {
-  const vsc_grasper_config* g = &it->config.grasp;
-  for (int h = 0; h < holds; ++h) {
-    const vsc_grasp* hold = &it->grasps[h];
-    int i = it->grasp_owner[h], body = m->site_bodyid[g->site[i]];
-    const double* f = hold->reaction;
-    if (!all_finite(f, 3)) continue;
-    const mjtNum* com = d->xipos + 3 * body;
-    double arm[3] = {hold->anchor[0] - com[0], hold->anchor[1] - com[1], hold->anchor[2] - com[2]};
-    vsc_wrench_add(wrench + 6 * body, 1.0, f, NULL, arm);
-    if (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] > g->slip_force * g->slip_force) {
-      mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
-      st[0] = GRASP_CLOSED_EMPTY;
-      st[5] += 1.0;
-    }
-  }
-}
-
 // A start inside a geom is pushed out (at up to VSC_PUSH_OUT_SPEED), not
 // refused: say so once per data, naming the geom, since it is rarely meant.
 // Resting contact sinks m g / k per sphere (hundredths of a mm): only a tenth
@@ -421,8 +344,8 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
   world.geom_wrench = it->geom_wrench;
   mjtNum* grasp_state = state + l.offset[VSC_STATE_GRASPS];
-  world.grasps = it->grasps;
-  world.grasp_count = update_grasps(m, d, it, state, grasp_state);
+  world.grasps = it->holds.grasps;
+  world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state, grasp_state, &it->holds);
   vsc_step_options step = it->config.step;
   step.substeps = step_substeps(m, it);
   vsc_step_report report = {0, 0};
@@ -440,7 +363,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
                      it->world.geoms[i].position[2] - com[2]};
     vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
-  release_slipping_grasps(m, d, it, world.grasp_count, grasp_state, wrench);
+  vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, grasp_state, wrench);
   // warn at counts 1, 2, 4, 8...: no spam
   if (status == VSC_ERROR_DIVERGED) {
     double count = state[l.offset[VSC_STATE_DIVERGENCES]] += 1.0;
