@@ -16,12 +16,14 @@ typedef enum vsc_status {
   VSC_ERROR_DIVERGED = -4,          ///< the state became non-finite; it was restored
 } vsc_status;
 
+#include <limits.h>  // on glibc, defines __GLIBC__ (features.h) for the test below
+
 /// Marks a hot loop's function for runtime dispatch on x86-64: an AVX2 clone
 /// (4 doubles a vector, where baseline SSE2 has 2) chosen at load time where the
 /// CPU has it, the baseline elsewhere. No FMA: every operation rounds as in the
 /// baseline (results are bit-identical), so the wheel runs on any x86-64. Empty
-/// on other targets and under the sanitizers.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(VSC_NO_CLONES)
+/// on other targets, without glibc's ifunc (musl) and under the sanitizers.
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__GLIBC__) && !defined(VSC_NO_CLONES)
 #define VSC_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define VSC_VECTOR_CLONES
