@@ -5,8 +5,9 @@
 
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
 is a function below, fed by docs/validation/results.json (python -m viscera.validate),
-docs/bench/results.json (python -m viscera.bench --json) or docs/bench/cavity.json
-(python -m viscera.bench_cavity --json).
+docs/bench/results.json (python -m viscera.bench --json), docs/bench/cavity.json
+(python -m viscera.bench_cavity --json) or the plugin's table of config keys
+(plugin/mujoco/keys.h, read through the installed viscera).
 """
 
 from __future__ import annotations
@@ -122,6 +123,13 @@ def cavity_speed() -> str:
             row += [f"{r['wall_s_per_sim_s']:.3f}", f"{r['p50_ms']:.3f}", f"{r['p99_ms']:.3f}", f"{r['p999_ms']:.3f}"]
         out.append(row)
     return _rows(header, out)
+
+
+def config_keys() -> str:
+    """From the plugin's table of keys (plugin/mujoco/keys.h), through the installed library."""
+    import viscera
+    rows = [[f"`{name}`", doc["unit"], doc["default"], doc["meaning"]] for name, doc in viscera.attribute_docs().items()]
+    return _rows(["key", "unit", "default", "meaning"], rows)
 
 
 def render(text: str) -> str:

@@ -8,17 +8,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "keys.h"
 #include "viscera/vsc_layout.h"
 
-const char* const vsc_plugin_attributes[] = {
-    "length", "control_points", "mass", "density", "radius", "radius_min", "radius_max",
-    "stretch_stiffness", "bend_stiffness", "global_stretch_stiffness", "damping", "substeps",
-    "integrator", "contact_stiffness", "contact_damping", "collision_spheres", "pinned", "shape",
-    "start", "direction", "points", "box", "samples_per_segment", "self_collision", "friction", "self_friction", "skin_rings_per_segment",
-    "skin_ring_points", "mesentery_stiffness", "mesentery_length", "mesentery_points", "mesentery_root",
-    "grasp_sites", "grasp_joints", "grasp_closed_below", "grasp_reach", "grasp_stiffness", "grasp_damping",
-    "grasp_slip_force", "young_modulus", "wall_thickness", "bending_rigidity", "clamped", "divergence_retries",
-    "mass_matrix"};
+#define KEY_NAME(name, unit, default_value, meaning) #name,
+#define KEY_DOC(name, unit, default_value, meaning) {#name, unit, default_value, meaning},
+const char* const vsc_plugin_attributes[] = {VSC_PLUGIN_KEYS(KEY_NAME)};
+const vsc_plugin_key_doc vsc_plugin_key_docs[] = {VSC_PLUGIN_KEYS(KEY_DOC)};
 const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
 
 #define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
@@ -121,13 +117,22 @@ static int read_number(reader* r, const char* key, double fallback, double* out,
   return 0;
 }
 
-static int read_positive(reader* r, const char* key, double fallback, double* out, const char* unit) {
+// The key's unit, from the table of keys (keys.h): refusals name it.
+static const char* unit_of(const char* key) {
+  for (int i = 0; i < vsc_plugin_attribute_count; ++i)
+    if (strcmp(vsc_plugin_key_docs[i].name, key) == 0) return vsc_plugin_key_docs[i].unit;
+  return "?";
+}
+
+static int read_positive(reader* r, const char* key, double fallback, double* out) {
+  const char* unit = unit_of(key);
   if (read_number(r, key, fallback, out, NULL)) return -1;
   if (!(*out > 0.0)) return fail(r, "attribute '%s' = '%s' must be positive (%s)", key, raw(r, key), unit);
   return 0;
 }
 
-static int read_nonnegative(reader* r, const char* key, double fallback, double* out, const char* unit) {
+static int read_nonnegative(reader* r, const char* key, double fallback, double* out) {
+  const char* unit = unit_of(key);
   if (read_number(r, key, fallback, out, NULL)) return -1;
   if (!(*out >= 0.0)) return fail(r, "attribute '%s' = '%s' must be >= 0 (%s)", key, raw(r, key), unit);
   return 0;
@@ -297,10 +302,10 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
                   raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
   }
   return read_number(r, "grasp_closed_below", 0.1, &g->closed_below, NULL) ||
-         read_positive(r, "grasp_reach", 2.0 * c->rod.radius, &g->reach, "m") ||
-         read_nonnegative(r, "grasp_stiffness", 1000.0, &g->stiffness, "N/m") ||
-         read_nonnegative(r, "grasp_damping", 2.0, &g->damping, "N s/m") ||
-         read_positive(r, "grasp_slip_force", 5.0, &g->slip_force, "N");
+         read_positive(r, "grasp_reach", 2.0 * c->rod.radius, &g->reach) ||
+         read_nonnegative(r, "grasp_stiffness", 1000.0, &g->stiffness) ||
+         read_nonnegative(r, "grasp_damping", 2.0, &g->damping) ||
+         read_positive(r, "grasp_slip_force", 5.0, &g->slip_force);
 }
 
 int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {
@@ -310,9 +315,9 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   c->step = vsc_default_step_options();
   vsc_rod_def* d = &c->rod;
   int failed =
-      read_positive(&r, "length", d->length, &d->length, "m") ||
+      read_positive(&r, "length", d->length, &d->length) ||
       read_count(&r, "control_points", d->control_count, 4, VSC_MAX_CONTROL_POINTS, &d->control_count) ||
-      read_positive(&r, "radius", d->radius, &d->radius, "m") ||
+      read_positive(&r, "radius", d->radius, &d->radius) ||
       read_count(&r, "samples_per_segment", d->samples_per_segment, 1, 64, &d->samples_per_segment);
   if (failed) return -1;
   if ((double)(d->control_count - 1) * d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
@@ -352,19 +357,19 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   double global_default = young_given ? 0.0 : d->global_stretch_stiffness;
   double rigidity_default = young_given ? young * second_moment : 0.0;
   failed =
-      read_positive(&r, "radius_max", d->radius, &c->radius_max, "m") ||
-      read_positive(&r, "radius_min", c->radius_max, &c->radius_min, "m") ||
+      read_positive(&r, "radius_max", d->radius, &c->radius_max) ||
+      read_positive(&r, "radius_min", c->radius_max, &c->radius_min) ||
       // the springs' defaults describe one material at any length (stiffness x
       // length constant); the global term is a length regulator acting on the
       // end points, so scaling it up for short intestines would only make them
       // unstable: its default does not scale
-      read_nonnegative(&r, "stretch_stiffness", stretch_default, &d->stretch_stiffness, "N/m") ||
-      read_nonnegative(&r, "bend_stiffness", bend_default, &d->bend_stiffness, "N/m") ||
-      read_nonnegative(&r, "global_stretch_stiffness", global_default, &d->global_stretch_stiffness, "N/m") ||
-      read_nonnegative(&r, "bending_rigidity", rigidity_default, &d->bending_rigidity, "N m^2") ||
-      read_nonnegative(&r, "damping", d->damping, &d->damping, "1/s") ||
-      read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness, "N/m") ||
-      read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping, "N s/m") ||
+      read_nonnegative(&r, "stretch_stiffness", stretch_default, &d->stretch_stiffness) ||
+      read_nonnegative(&r, "bend_stiffness", bend_default, &d->bend_stiffness) ||
+      read_nonnegative(&r, "global_stretch_stiffness", global_default, &d->global_stretch_stiffness) ||
+      read_nonnegative(&r, "bending_rigidity", rigidity_default, &d->bending_rigidity) ||
+      read_nonnegative(&r, "damping", d->damping, &d->damping) ||
+      read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness) ||
+      read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping) ||
       read_count(&r, "substeps", c->step.substeps, 1, 10000, &c->step.substeps) ||  // absent: chosen per step
       read_count(&r, "divergence_retries", c->step.retries, 0, 10, &c->step.retries) ||
       read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
@@ -376,13 +381,13 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
                 "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
   int self_collision = 1;
   failed = read_count(&r, "self_collision", 1, 0, 1, &self_collision) ||
-           read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction, "Coulomb coefficient");
+           read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction);
   if (failed) return -1;
   d->self_collision = self_collision;
   // mesentery: tension-only tethers from the axis to a root line (off by default)
   static const double no_root[6] = {0, 0, 0, 0, 0, 0};
-  if (read_nonnegative(&r, "mesentery_stiffness", 0.0, &d->mesentery_stiffness, "N/m") ||
-      read_nonnegative(&r, "mesentery_length", 0.15, &d->mesentery_length, "m") ||
+  if (read_nonnegative(&r, "mesentery_stiffness", 0.0, &d->mesentery_stiffness) ||
+      read_nonnegative(&r, "mesentery_length", 0.15, &d->mesentery_length) ||
       read_count(&r, "mesentery_points", 32, 1, 100000, &d->mesentery_points) ||
       read_vector(&r, "mesentery_root", 6, no_root, d->mesentery_root))
     return -1;
@@ -393,7 +398,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
       read_count(&r, "skin_ring_points", 16, 3, 256, &c->skin_ring_points))
     return -1;
   c->friction = -1.0;
-  if (raw(&r, "friction") && read_nonnegative(&r, "friction", 0.0, &c->friction, "Coulomb coefficient")) return -1;
+  if (raw(&r, "friction") && read_nonnegative(&r, "friction", 0.0, &c->friction)) return -1;
   if (c->radius_min > c->radius_max)
     return fail(&r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->radius_min, c->radius_max);
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)

@@ -8,9 +8,19 @@
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_rod.h"
 
-/// Config attribute names, in the order MuJoCo is told about them.
+/// Config attribute names, in the order MuJoCo is told about them (keys.h).
 extern const char* const vsc_plugin_attributes[];
 extern const int vsc_plugin_attribute_count;
+
+/// Each key's documentation row (keys.h), in the same order: unit, default and
+/// meaning as Markdown (static storage).
+typedef struct vsc_plugin_key_doc {
+  const char* name;
+  const char* unit;
+  const char* default_value;
+  const char* meaning;
+} vsc_plugin_key_doc;
+extern const vsc_plugin_key_doc vsc_plugin_key_docs[];
 
 /// Initial shape of the axis.
 typedef enum vsc_shape_kind {

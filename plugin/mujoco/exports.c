@@ -20,6 +20,14 @@ VSC_EXPORT const char* viscera_attribute_name(int i) {
   return i >= 0 && i < vsc_plugin_attribute_count ? vsc_plugin_attributes[i] : 0;
 }
 
+/// Documentation of config attribute i (static storage): field 0 unit, 1
+/// default, 2 meaning (Markdown); NULL if out of range.
+VSC_EXPORT const char* viscera_attribute_doc(int i, int field) {
+  if (i < 0 || i >= vsc_plugin_attribute_count) return 0;
+  const vsc_plugin_key_doc* row = &vsc_plugin_key_docs[i];
+  return field == 0 ? row->unit : field == 1 ? row->default_value : field == 2 ? row->meaning : 0;
+}
+
 /// Allowed value i of an enumerated config key (integrator, shape, clamped,
 /// mass_matrix), in enum order (static storage); NULL past the last one or
 /// for a key that is not enumerated.

@@ -59,6 +59,8 @@ def load() -> pathlib.Path:
                 ctypes.c_void_p] * 4
             _ctypes_library.viscera_intestine_energy.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_energy.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
+            _ctypes_library.viscera_attribute_doc.restype = ctypes.c_char_p
+            _ctypes_library.viscera_attribute_doc.argtypes = [ctypes.c_int, ctypes.c_int]
             _ctypes_library.viscera_allowed_value.restype = ctypes.c_char_p
             _ctypes_library.viscera_allowed_value.argtypes = [ctypes.c_char_p, ctypes.c_int]
             _ctypes_library.viscera_state_block_count.restype = ctypes.c_int

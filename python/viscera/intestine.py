@@ -29,6 +29,14 @@ def attribute_names() -> tuple[str, ...]:
     return tuple(lib.viscera_attribute_name(i).decode() for i in range(lib.viscera_attribute_count()))
 
 
+def attribute_docs() -> dict[str, dict[str, str]]:
+    """Each config key's unit, default and meaning (Markdown), from the plugin's one table of keys
+    (plugin/mujoco/keys.h), in the order MuJoCo is told them."""
+    lib = _library.native()
+    return {name: {field: lib.viscera_attribute_doc(i, k).decode() for k, field in enumerate(("unit", "default", "meaning"))}
+            for i, name in enumerate(attribute_names())}
+
+
 def allowed_values(key: str) -> tuple[str, ...]:
     """The names an enumerated config key accepts (integrator, shape, clamped, mass_matrix), as
     the plugin defines them (one list per key, tied to its enum); () for any other key."""

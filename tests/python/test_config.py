@@ -179,3 +179,17 @@ def test_enumerated_keys_have_one_list_that_parsing_and_refusals_read(key, expec
              "both": {"bending_rigidity": "0.01"}}
     for name in expected:
         mujoco.MjModel.from_xml_string(scene_xml(**{key: name}, **needs.get(name, {})))
+
+
+def test_every_key_has_one_row_that_documents_it_and_names_its_unit_in_refusals():
+    """The plugin's table of keys (plugin/mujoco/keys.h) is the key list MuJoCo is told, every row
+    has a unit, a default and a meaning (docs/configuration.md's table is generated from it), and a
+    refused number names the unit of its row."""
+    import viscera
+    docs = viscera.attribute_docs()
+    assert tuple(docs) == viscera.attribute_names() and len(docs) == len(set(docs))
+    assert all(row["unit"] and row["default"] and row["meaning"] for row in docs.values())
+    for key in ("length", "contact_damping", "friction", "grasp_slip_force"):
+        with pytest.raises(ValueError) as refused:
+            mujoco.MjModel.from_xml_string(scene_xml(**{key: "-1"}))
+        assert f"'{key}' = '-1'" in str(refused.value) and f"({docs[key]['unit']})" in str(refused.value)
