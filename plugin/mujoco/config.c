@@ -350,8 +350,8 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   if (wall_given && !(wall > 0.0 && wall <= d->radius))
     return fail(&r, "attribute 'wall_thickness' = '%s' must be positive and at most 'radius' = %g (m)", raw(&r, "wall_thickness"), d->radius);
   if (wall_given && !young_given) return fail(&r, "attribute 'wall_thickness' needs 'young_modulus'");
-  double inner = wall_given ? d->radius - wall : 0.0, r2 = d->radius * d->radius, i2 = inner * inner;
-  double area = VSC_PI * (r2 - i2), second_moment = 0.25 * VSC_PI * (r2 * r2 - i2 * i2);
+  double area, second_moment;
+  vsc_tube_section(d->radius, wall_given ? wall : 0.0, &area, &second_moment);
   double stretch_default = young_given ? young * area / d->length : d->stretch_stiffness * 4.0 / d->length;
   double bend_default = young_given ? 0.0 : d->bend_stiffness * 4.0 / d->length;
   double global_default = young_given ? 0.0 : d->global_stretch_stiffness;

@@ -233,7 +233,24 @@ static void memory_is_estimated_and_bounded(void) {
   ENSURE(vsc_rod_create(&def, &rod) == VSC_ERROR_OUT_OF_MEMORY && rod == NULL);
 }
 
+// The tube's section: a solid rod pi r^2 and pi r^4 / 4; a thin wall of
+// thickness t about 2 pi r t and pi r^3 t; a wall as thick as the radius is solid.
+static void tube_section_is_the_annulus(void) {
+  double r = 0.0125, area, moment;
+  vsc_tube_section(r, 0.0, &area, &moment);
+  ENSURE_NEAR(area, VSC_PI * r * r, 1e-18);
+  ENSURE_NEAR(moment, 0.25 * VSC_PI * r * r * r * r, 1e-22);
+  double solid_area = area, solid_moment = moment;
+  vsc_tube_section(r, r, &area, &moment);
+  ENSURE_NEAR(area, solid_area, 1e-18);
+  ENSURE_NEAR(moment, solid_moment, 1e-22);
+  double t = 1e-5;
+  vsc_tube_section(r, t, &area, &moment);
+  ENSURE(fabs(area / (2.0 * VSC_PI * r * t) - 1.0) < 1e-3 && fabs(moment / (VSC_PI * r * r * r * t) - 1.0) < 2e-3);
+}
+
 int main(void) {
+  RUN(tube_section_is_the_annulus);
   RUN(mass_matrix_exact_band7_spd_total);
   RUN(memory_is_estimated_and_bounded);
   RUN(gradient_matches_central_differences);

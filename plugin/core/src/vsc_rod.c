@@ -36,6 +36,12 @@ int vsc_default_collision_sphere_count(double length, double radius) {
   return isfinite(count) && count <= VSC_MAX_COLLISION_SPHERES ? (int)count : -1;
 }
 
+void vsc_tube_section(double radius, double wall_thickness, double* area, double* second_moment) {
+  double inner = wall_thickness > 0.0 ? radius - wall_thickness : 0.0, r2 = radius * radius, i2 = inner * inner;
+  *area = VSC_PI * (r2 - i2);
+  *second_moment = 0.25 * VSC_PI * (r2 * r2 - i2 * i2);
+}
+
 static int finite_nonneg(double x) { return isfinite(x) && x >= 0.0; }
 static int finite_pos(double x) { return isfinite(x) && x > 0.0; }
 
