@@ -1,5 +1,6 @@
 // Reads and checks the viscera.intestine plugin's config attributes, in one place.
-// Units are SI; every key, its unit and default are listed in README.md.
+// Units are SI; every key, its unit, default and meaning are in keys.h (and the
+// page generated from it, docs/configuration.md).
 #ifndef VISCERA_PLUGIN_CONFIG_H
 #define VISCERA_PLUGIN_CONFIG_H
 
@@ -39,7 +40,7 @@ const char* const* vsc_plugin_allowed_values(const char* key);
 /// Most grasping jaws one intestine serves.
 #define VSC_MAX_GRASPERS 8
 
-/// Jaws that take hold of the axis (see intestine.c): grasper i's anchor is
+/// Jaws that take hold of the axis (see grasps.c): grasper i's anchor is
 /// site `site[i]`; it is closed while joint `joint[i]`'s position is at most
 /// `closed_below`.
 typedef struct vsc_grasper_config {

@@ -101,7 +101,7 @@
     "a hold pulling harder slips out of the jaw") \
   X(young_modulus, "Pa", "none", \
     "material: sets `stretch_stiffness` = EA / length and `bending_rigidity` = EI, and turns the bend " \
-    "springs and global term off by default (see Material parameters)") \
+    "springs and global term off by default (see [material parameters](validation.md#material-parameters))") \
   X(wall_thickness, "m", "solid", \
     "tube wall (0 < t <= radius) for A and I; needs `young_modulus`") \
   X(bending_rigidity, "N m^2", "E I, else 0", \

@@ -1,6 +1,6 @@
 """Soak: the clear_area task under random tool motion for a long simulated time.
 
-    python -m viscera.soak --minutes 30          # the figures in README and docs/soak/
+    python -m viscera.soak --minutes 30          # the figures in docs/robustness.md and docs/soak/
 
 One episode with no reset (the time limit is the soak's length). Every few
 seconds each tool takes a new random target: a joint configuration whose tool

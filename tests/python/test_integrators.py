@@ -109,7 +109,7 @@ YANK_TOOL = ('<geom type="plane" size="3 3 0.1"/>'
              '<geom type="sphere" size="0.002" mass="0.001" contype="0" conaffinity="0"/></body></body>')
 
 
-@pytest.mark.parametrize("integrator,substeps", [("rk4", 2), ("symplectic_euler", 4), ("implicit", 1)])
+@pytest.mark.parametrize("integrator,substeps", [("rk4", 2), ("symplectic_euler", 4), ("leapfrog", 4), ("implicit", 1)])
 def test_a_yank_at_2_m_per_s_stays_finite(integrator, substeps):
     """A grasper closes on the middle of a resting intestine and yanks it up at 2 m/s for 0.25 s
     on a 20 kN/m hold: every integrator runs stable or is caught and recovered, never NaN, and

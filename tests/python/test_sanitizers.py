@@ -80,7 +80,7 @@ for _ in range(25):
     env.step(rng.uniform(spec.minimum, spec.maximum))
 twin = pickle.loads(pickle.dumps(env.physics))
 twin.step()
-for integrator in ("rk4", "symplectic_euler", "implicit"):
+for integrator in viscera.allowed_values("integrator"):
     xml = ('<mujoco><worldbody><geom type="plane" size="2 2 .1"/><geom type="box" size=".1 .1 .1" pos=".3 0 .1"/>'
            '</worldbody>' + viscera.extension_xml('g', length=1, control_points=20, shape='line', start=[0, 0, 0.3],
                                                   integrator=integrator) + '</mujoco>')

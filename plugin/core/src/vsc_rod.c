@@ -22,7 +22,7 @@ vsc_rod_def vsc_default_rod_def(void) {
   def.bend_stiffness = 1.0;
   def.global_stretch_stiffness = 200.0;
   def.damping = 1.0;
-  def.lumped_mass = 1;  // with leapfrog: 3 substeps per 2 ms where the consistent M needs 5 (README)
+  def.lumped_mass = 1;  // with leapfrog: 3 substeps per 2 ms where the consistent M needs 5 (docs/benchmarks.md)
   def.collision_sphere_count = vsc_default_collision_sphere_count(def.length, def.radius);
   def.contact_stiffness = 2000.0;
   def.contact_damping = 2.0;
@@ -37,7 +37,8 @@ int vsc_default_collision_sphere_count(double length, double radius) {
 }
 
 void vsc_tube_section(double radius, double wall_thickness, double* area, double* second_moment) {
-  double inner = wall_thickness > 0.0 ? radius - wall_thickness : 0.0, r2 = radius * radius, i2 = inner * inner;
+  double inner = wall_thickness > 0.0 && wall_thickness < radius ? radius - wall_thickness : 0.0;  // else solid
+  double r2 = radius * radius, i2 = inner * inner;
   *area = VSC_PI * (r2 - i2);
   *second_moment = 0.25 * VSC_PI * (r2 * r2 - i2 * i2);
 }

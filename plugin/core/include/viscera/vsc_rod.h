@@ -103,8 +103,8 @@ vsc_rod_def vsc_default_rod_def(void);
 /// sqrt(3.5) r = 1.87 r apart. Returns -1 past VSC_MAX_COLLISION_SPHERES.
 int vsc_default_collision_sphere_count(double length, double radius);
 
-/// A tube's section: outer radius (m) and wall thickness (m; 0: a solid
-/// section) to its area A = pi (r^2 - (r - t)^2) (m^2) and second moment of
+/// A tube's section: outer radius (m) and wall thickness (m; 0, or at least the
+/// radius: a solid section) to its area A = pi (r^2 - (r - t)^2) (m^2) and second moment of
 /// area I = pi (r^4 - (r - t)^4) / 4 (m^4). With a Young's modulus E (Pa), EA
 /// (N) and EI (N m^2) are the rod's axial stiffness and bending rigidity.
 void vsc_tube_section(double radius, double wall_thickness, double* area, double* second_moment);
