@@ -1,6 +1,6 @@
 // Reads and checks the viscera.intestine plugin's config attributes, in one place.
 // Units are SI; every key, its unit, default and meaning are in keys.h (and the
-// page generated from it, docs/configuration.md).
+// page generated from it, docs/config.md).
 #ifndef VISCERA_PLUGIN_CONFIG_H
 #define VISCERA_PLUGIN_CONFIG_H
 

@@ -1,7 +1,7 @@
 // viscera.intestine's config keys, one row each: name, unit, default,
 // meaning (Markdown). The one list of keys: MuJoCo is told the names in this
 // order (plugin_attr keeps it), Python reads it (viscera.attribute_names,
-// viscera.attribute_docs), and docs/configuration.md's table is generated
+// viscera.attribute_docs), and docs/config.md's table is generated
 // from it (docs/tables.py; a test fails when they differ). Parsing, bounds and
 // refusals are in config.c.
 #ifndef VISCERA_PLUGIN_KEYS_H

@@ -183,7 +183,7 @@ def test_enumerated_keys_have_one_list_that_parsing_and_refusals_read(key, expec
 
 def test_every_key_has_one_row_that_documents_it_and_names_its_unit_in_refusals():
     """The plugin's table of keys (plugin/mujoco/keys.h) is the key list MuJoCo is told, every row
-    has a unit, a default and a meaning (docs/configuration.md's table is generated from it), and a
+    has a unit, a default and a meaning (docs/config.md's table is generated from it), and a
     refused number names the unit of its row."""
     import viscera
     docs = viscera.attribute_docs()

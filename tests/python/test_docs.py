@@ -29,7 +29,7 @@ def test_the_site_builds_strictly(tmp_path):
                           env={"NO_MKDOCS_2_WARNING": "1", "PATH": "/usr/bin:/bin"})
     assert done.returncode == 0, done.stdout + done.stderr
     assert (tmp_path / "site" / "index.html").exists()
-    assert (tmp_path / "site" / "configuration" / "index.html").exists()
+    assert (tmp_path / "site" / "config" / "index.html").exists()
 
 
 def test_the_pages_tables_match_their_results_json():
