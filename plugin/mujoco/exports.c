@@ -148,40 +148,31 @@ VSC_EXPORT double viscera_collision_pass_seconds(const double* xyz, int count, d
 
 // The skin definition of intestine `instance`: its config, with the resolution
 // overridden where rings_per_segment / ring_points are positive.
-static int skin_def(const mjModel* m, int instance, int rings_per_segment, int ring_points, vsc_skin_def* def,
-                    int* n) {
+/// The skin of intestine `instance` (paper 3.2) from `state`, the instance's
+/// plugin_state (positions first, m): *vertex_count and *triangle_count
+/// receive its sizes; when they fit the capacities, vertices (m, 3 each), unit
+/// normals and triangles (3 vertex indices each) are written. A positive
+/// rings_per_segment / ring_points overrides the config's. One config read a
+/// call: Python guesses the sizes from its last call and calls again only when
+/// they changed. Returns 0 (built), 1 (too small: sizes only), or -1 (not an
+/// intestine, too few ring points, or a state that cannot be skinned).
+VSC_EXPORT int viscera_skin(const mjModel* m, int instance, int rings_per_segment, int ring_points,
+                            const double* state, int vertex_capacity, int triangle_capacity, double* vertices,
+                            double* normals, int* triangles, int* vertex_count, int* triangle_count) {
   vsc_plugin_config config;
   if (read_intestine(m, instance, &config)) return -1;
-  def->rings_per_segment = rings_per_segment > 0 ? rings_per_segment : config.skin_rings_per_segment;
-  def->ring_points = ring_points > 0 ? ring_points : config.skin_ring_points;
-  def->radius_min = config.radius_min;
-  def->radius_max = config.radius_max;
-  *n = config.rod.control_count;
+  vsc_skin_def def;
+  def.rings_per_segment = rings_per_segment > 0 ? rings_per_segment : config.skin_rings_per_segment;
+  def.ring_points = ring_points > 0 ? ring_points : config.skin_ring_points;
+  def.radius_min = config.radius_min;
+  def.radius_max = config.radius_max;
+  int n = config.rod.control_count;
   vsc_plugin_config_free(&config);
-  return def->ring_points >= 3 ? 0 : -1;
-}
-
-/// Vertex and triangle counts of the skin of intestine `instance` (-1 if not
-/// one); a positive rings_per_segment / ring_points overrides the config's.
-VSC_EXPORT int viscera_skin_size(const mjModel* m, int instance, int rings_per_segment, int ring_points,
-                                 int* vertices, int* triangles) {
-  vsc_skin_def def;
-  int n;
-  if (skin_def(m, instance, rings_per_segment, ring_points, &def, &n)) return -1;
-  *vertices = vsc_skin_vertex_count(n, &def);
-  *triangles = vsc_skin_triangle_count(n, &def);
-  return 0;
-}
-
-/// Skin of intestine `instance` for control points q (m, 3n) into arrays sized
-/// by viscera_skin_size with the same overrides: vertices (m), unit normals,
-/// triangle vertex indices.
-VSC_EXPORT int viscera_skin_build(const mjModel* m, int instance, int rings_per_segment, int ring_points,
-                                  const double* q, double* vertices, double* normals, int* triangles) {
-  vsc_skin_def def;
-  int n;
-  if (skin_def(m, instance, rings_per_segment, ring_points, &def, &n)) return -1;
-  return vsc_skin_build(q, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
+  if (def.ring_points < 3 || m->plugin_statenum[instance] < 3 * n) return -1;
+  *vertex_count = vsc_skin_vertex_count(n, &def);
+  *triangle_count = vsc_skin_triangle_count(n, &def);
+  if (*vertex_count > vertex_capacity || *triangle_count > triangle_capacity) return 1;
+  return vsc_skin_build(state, n, &def, vertices, normals, triangles) == VSC_OK ? 0 : -1;
 }
 
 // The rod of intestine `instance` as the plugin builds it, with its initial control

@@ -50,13 +50,10 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_collision_pass_seconds.restype = ctypes.c_double
             _ctypes_library.viscera_collision_pass_seconds.argtypes = [
                 ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_int)]
-            _ctypes_library.viscera_skin_size.restype = ctypes.c_int
-            _ctypes_library.viscera_skin_size.argtypes = [
-                ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.POINTER(ctypes.c_int),
-                ctypes.POINTER(ctypes.c_int)]
-            _ctypes_library.viscera_skin_build.restype = ctypes.c_int
-            _ctypes_library.viscera_skin_build.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int] + [
-                ctypes.c_void_p] * 4
+            _ctypes_library.viscera_skin.restype = ctypes.c_int
+            _ctypes_library.viscera_skin.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                                     ctypes.c_void_p, ctypes.c_int, ctypes.c_int] + [
+                ctypes.c_void_p] * 3 + [ctypes.POINTER(ctypes.c_int)] * 2
             _ctypes_library.viscera_intestine_energy.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_energy.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
             _ctypes_library.viscera_attribute_doc.restype = ctypes.c_char_p

@@ -289,6 +289,9 @@ def add_to_mjcf(root: Any, name: str = "intestine", **config: Any) -> Any:
     return instance
 
 
+_SKIN_SIZES: dict[tuple, tuple[int, int]] = {}  # per (model address, instance, resolution): the last sizes
+
+
 def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
          rings_per_segment: int | None = None, ring_points: int | None = None):
     """The intestine's skin (paper 3.2): a closed generalised cylinder around its axis.
@@ -302,22 +305,32 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
     if (rings_per_segment is not None and rings_per_segment < 1) or (ring_points is not None and ring_points < 3):
         raise ValueError(f"a skin needs rings_per_segment >= 1 and ring_points >= 3, got {rings_per_segment} "
                          f"and {ring_points}")
-    gut = intestine(model, instance) if isinstance(instance, str) else None
-    index = gut.instance if gut else int(instance)
-    rings, points = rings_per_segment or 0, ring_points or 0  # 0: the config's resolution
-    lib = _library.native()
-    nv, nt = ctypes.c_int(0), ctypes.c_int(0)
-    address = ctypes.c_void_p(model._address)
-    if lib.viscera_skin_size(address, index, rings, points, ctypes.byref(nv), ctypes.byref(nt)) != 0:
+    index = intestine(model, instance).instance if isinstance(instance, str) else int(instance)
+    if not 0 <= index < model.nplugin:
         raise KeyError(f"plugin instance {instance!r} is not a viscera.intestine")
-    gut = gut or next(g for g in intestines(model) if g.instance == index)
-    q = np.ascontiguousarray(gut.positions(data), dtype=np.float64)
-    vertices = np.empty((nv.value, 3))
-    normals = np.empty((nv.value, 3))
-    triangles = np.empty((nt.value, 3), dtype=np.int32)
-    status = lib.viscera_skin_build(address, index, rings, points, q.ctypes.data_as(ctypes.c_void_p),
-                                    vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
-                                    triangles.ctypes.data_as(ctypes.c_void_p))
+    rings, points = rings_per_segment or 0, ring_points or 0  # 0: the config's resolution
+    start = int(model.plugin_stateadr[index])
+    state = np.ascontiguousarray(data.plugin_state[start:start + int(model.plugin_statenum[index])], dtype=np.float64)
+    key = (model._address, index, rings, points)
+    nv, nt = _SKIN_SIZES.get(key, (0, 0))  # a guess: the plugin says if it does not fit
+    counts = (ctypes.c_int(0), ctypes.c_int(0))
+    for _ in range(2):
+        vertices, normals = np.empty((nv, 3)), np.empty((nv, 3))
+        triangles = np.empty((nt, 3), dtype=np.int32)
+        status = _library.native().viscera_skin(
+            ctypes.c_void_p(model._address), index, rings, points, state.ctypes.data_as(ctypes.c_void_p), nv, nt,
+            vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
+            triangles.ctypes.data_as(ctypes.c_void_p), ctypes.byref(counts[0]), ctypes.byref(counts[1]))
+        if status != 1:
+            break
+        nv, nt = counts[0].value, counts[1].value
+        if len(_SKIN_SIZES) > 256:  # many models come and go: keep it small
+            _SKIN_SIZES.clear()
+        _SKIN_SIZES[key] = (nv, nt)
+    if status < 0 and _info(model, index) is None:
+        raise KeyError(f"plugin instance {instance!r} is not a viscera.intestine")
     if status != 0:
         raise ValueError("the intestine's state cannot be skinned (non-finite control points?)")
+    if (nv, nt) != (counts[0].value, counts[1].value):  # built into larger arrays than it needed
+        vertices, normals, triangles = vertices[:counts[0].value], normals[:counts[0].value], triangles[:counts[1].value]
     return vertices, normals, triangles
