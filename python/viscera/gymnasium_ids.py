@@ -21,8 +21,10 @@ import importlib.abc
 import importlib.util
 import sys
 
-# task name (viscera.tasks.ALL) -> gymnasium id
-ENV_IDS = {"clear_area": "viscera/ClearArea-v0"}
+from viscera.task_registry import TASKS
+
+# task name (viscera.tasks.ALL) -> gymnasium id, from the one task registry
+ENV_IDS = {task: env_id for task, (_, env_id) in TASKS.items()}
 
 
 def register() -> None:

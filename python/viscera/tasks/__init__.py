@@ -7,19 +7,21 @@
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 
-from viscera.tasks import clear_area
+from viscera.task_registry import TASKS
 
-_TASKS = {"clear_area": clear_area.load}
-ALL = tuple(_TASKS)
+ALL = tuple(TASKS)
 
 
 def load(name: str, seed: int | None = None, **kwargs):
-    """The environment called `name` (one of ALL), with its random seed."""
-    if name not in _TASKS:
+    """The environment called `name` (one of ALL, viscera/task_registry.py), with its random seed."""
+    if name not in TASKS:
         raise KeyError(f"unknown task {name!r}; known: {ALL}")
-    return _TASKS[name](seed=seed, **kwargs)
+    module = importlib.import_module(f"viscera.tasks.{TASKS[name][0]}")
+    return module.load(seed=seed, **kwargs)
 
 
 def reseed(env, seed: int | None) -> None:
