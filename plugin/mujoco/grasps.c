@@ -13,7 +13,7 @@ int vsc_mujoco_holds_update(const mjModel* m, mjData* d, const vsc_grasper_confi
                             mjtNum* grasp_state, vsc_mujoco_holds* out) {
   int holds = 0;
   for (int i = 0; i < g->count; ++i) {
-    mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
+    mjtNum* st = grasp_state + VSC_GRASP_STATE_SIZE * i;
     int site = g->site[i];
     const mjtNum* origin = d->site_xpos + 3 * site;
     const mjtNum* rotation = d->site_xmat + 9 * site;  // site to world, row major
@@ -69,7 +69,7 @@ void vsc_mujoco_holds_release(const mjModel* m, const mjData* d, const vsc_grasp
     double arm[3] = {hold->anchor[0] - com[0], hold->anchor[1] - com[1], hold->anchor[2] - com[2]};
     vsc_wrench_add(wrench + 6 * body, 1.0, f, NULL, arm);
     if (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] > g->slip_force * g->slip_force) {
-      mjtNum* st = grasp_state + GRASP_STATE_SIZE * i;
+      mjtNum* st = grasp_state + VSC_GRASP_STATE_SIZE * i;
       st[0] = GRASP_CLOSED_EMPTY;
       st[5] += 1.0;
     }

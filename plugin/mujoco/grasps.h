@@ -15,7 +15,6 @@
 // Per grasper state (VSC_GRASP_STATE_SIZE numbers): status, held abscissa s,
 // the held point in the site's frame (m, 3) so that taking hold moves nothing,
 // slip count.
-#define GRASP_STATE_SIZE VSC_GRASP_STATE_SIZE
 enum { GRASP_OPEN = 0, GRASP_HOLDING = 1, GRASP_CLOSED_EMPTY = 2 };
 
 /// This step's holds: the core's grasps and, for each, its grasper.
@@ -28,7 +27,7 @@ typedef struct vsc_mujoco_holds {
 /// Jaws take and lose their hold, from the jaw joints in `d`: a closing jaw
 /// (open, now at or below closed_below) holds the axis point nearest its site
 /// if within reach (else it stays closed empty); an opening jaw lets go.
-/// Updates `grasp_state` (G x GRASP_STATE_SIZE) and fills `out` with this
+/// Updates `grasp_state` (G x VSC_GRASP_STATE_SIZE) and fills `out` with this
 /// step's holds, anchors at the step start (q: control points, m). Returns
 /// their count.
 int vsc_mujoco_holds_update(const mjModel* m, mjData* d, const vsc_grasper_config* g, vsc_rod* rod, const mjtNum* q,

@@ -34,9 +34,9 @@ typedef struct intestine {
   double* geom_wrench;    // reaction on each of them, averaged over a step (6 x world.count)
   int warned_passive_off; // the passive-off warning was given for this data
   int checked_start;      // the first step of this data looked for a start inside a geom
-  int has_frequencies;    // 1: the two below are computed
-  double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies
-  double contact_frequency;
+  vsc_state_layout layout;  // plugin_state's blocks for this model and config (state_layout.h)
+  double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies,
+  double contact_frequency;  // computed at creation when the substeps come from the timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
 } intestine;
 
@@ -48,6 +48,11 @@ static void intestine_free(intestine* it) {
   free(it->initial_q);
   free(it->geom_wrench);
   free(it);
+}
+
+// plugin_state's blocks for this model and config (state_layout.h)
+static vsc_state_layout layout_of(const mjModel* m, const vsc_plugin_config* c) {
+  return vsc_state_layout_of(c->rod.control_count, c->rod.collision_sphere_count, (int)m->nbody, c->grasp.count);
 }
 
 // Build every model-derived cache. Returns NULL and fills `error` on failure.
@@ -72,24 +77,18 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     intestine_free(it);
     return NULL;
   }
+  it->layout = layout_of(m, &it->config);
   vsc_status status = vsc_rod_create(&it->config.rod, &it->rod);
   if (status != VSC_OK) {
     snprintf(error, ERROR_SIZE, "viscera.intestine: cannot build the rod: %s", vsc_status_string(status));
     intestine_free(it);
     return NULL;
   }
-  if (it->config.auto_substeps) {  // here, not in the first step: about 1-2 ms, which no step should pay
+  if (it->config.auto_substeps)  // here, not in the first step: about 1-2 ms, which no step should pay
     vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
-    it->has_frequencies = 1;
-  }
   return it;
 }
 
-// plugin_state's blocks for this model and config (state_layout.h)
-static vsc_state_layout layout_of(const mjModel* m, const vsc_plugin_config* c) {
-  return vsc_state_layout_of(c->rod.control_count, c->rod.collision_sphere_count, (int)m->nbody, c->grasp.count);
-}
-static int block(const mjModel* m, const vsc_plugin_config* c, vsc_state_block b) { return layout_of(m, c).offset[b]; }
 static int config_state_size(const mjModel* m, const vsc_plugin_config* c) { return layout_of(m, c).total; }
 
 static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, const double* initial_q, mjtNum* state) {
@@ -252,7 +251,7 @@ static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjt
 static void intestine_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
-  const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + block(m, &it->config, VSC_STATE_WRENCHES);
+  const mjtNum* wrench = d->plugin_state + m->plugin_stateadr[instance] + it->layout.offset[VSC_STATE_WRENCHES];
   if (capability_bit == mjPLUGIN_SENSOR) {
     compute_sensors(m, d, instance, wrench);
     return;
@@ -296,10 +295,6 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
 // copy of a data chooses alike.
 static int step_substeps(const mjModel* m, intestine* it) {
   if (!it->config.auto_substeps) return it->config.step.substeps;
-  if (!it->has_frequencies) {
-    vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
-    it->has_frequencies = 1;
-  }
   return vsc_stable_substeps(it->config.step.integrator, it->elastic_frequency, it->contact_frequency,
                              it->rod->contact_damping_rate,
                              m->opt.timestep);
@@ -310,7 +305,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  vsc_state_layout l = layout_of(m, &it->config);
+  const vsc_state_layout l = it->layout;
   if (!all_finite(state, m->plugin_statenum[instance])) {  // e.g. a bad mj_setState: start over
     mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
     double count = isfinite(state[l.offset[VSC_STATE_DIVERGENCES]]) ? state[l.offset[VSC_STATE_DIVERGENCES]] : 0.0;

@@ -771,11 +771,6 @@ static void update_slot(double* slot, const double* touch, const double unseen[3
   }
 }
 
-// Velocity change (m/s) at sphere i from the control points' (3n).
-static void sphere_change(const vsc_rod* rod, const double* velocity_change, int i, double out[3]) {
-  vsc_basis_point(&rod->sphere_basis[i], velocity_change, out);
-}
-
 void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const double* velocity_change) {
   if (!rod->touched) {  // no contact was looked for: none holds
     vsc_stick_clear(stick, rod->def.collision_sphere_count);
@@ -787,16 +782,16 @@ void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const dou
     const double* touch = rod->touch + VSC_TOUCH_SIZE * i;
     const double* rigid = touch + RIGID;
     double unseen[3] = {0.0, 0.0, 0.0};
-    if (velocity_change && rigid[T_PARTNER] >= 0.0) sphere_change(rod, velocity_change, i, unseen);
+    if (velocity_change && rigid[T_PARTNER] >= 0.0) vsc_basis_point(&rod->sphere_basis[i], velocity_change, unseen);
     update_slot(stick + VSC_STICK_SIZE * i, rigid, unseen, k, h);
     const double* self = touch + SELF;
     if (velocity_change && self[T_PARTNER] >= 0.0) {  // (1 - s) a + s (a + 1) - (1 - t) b - t (b + 1)
       int b = (int)self[T_PARTNER];
       double s = self[T_S], t = self[T_T], a0[3], a1[3], b0[3], b1[3];
-      sphere_change(rod, velocity_change, i, a0);
-      sphere_change(rod, velocity_change, i + 1, a1);
-      sphere_change(rod, velocity_change, b, b0);
-      sphere_change(rod, velocity_change, b + 1, b1);
+      vsc_basis_point(&rod->sphere_basis[i], velocity_change, a0);
+      vsc_basis_point(&rod->sphere_basis[i + 1], velocity_change, a1);
+      vsc_basis_point(&rod->sphere_basis[b], velocity_change, b0);
+      vsc_basis_point(&rod->sphere_basis[b + 1], velocity_change, b1);
       for (int a = 0; a < 3; ++a)
         unseen[a] = (1.0 - s) * a0[a] + s * a1[a] - (1.0 - t) * b0[a] - t * b1[a];
     }
