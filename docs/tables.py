@@ -128,8 +128,9 @@ def cavity_speed() -> str:
 def config_keys() -> str:
     """From the plugin's table of keys (plugin/mujoco/keys.h), through the installed library."""
     import viscera
-    rows = [[f"`{name}`", doc["unit"], doc["default"], doc["meaning"]] for name, doc in viscera.attribute_docs().items()]
-    return _rows(["key", "unit", "default", "meaning"], rows)
+    rows = [[f"`{name}`", doc["values"], doc["unit"], doc["default"], doc["meaning"]]
+            for name, doc in viscera.attribute_docs().items()]
+    return _rows(["key", "values", "unit", "default", "meaning"], rows)
 
 
 def render(text: str) -> str:

@@ -98,3 +98,15 @@ void* vsc_registry_remove(const void* data, int instance) {
   pthread_mutex_unlock(&lock);
   return cache;
 }
+
+int vsc_registry_visit(const void* cache, int instance, void (*visit)(void* cache, void* context), void* context) {
+  pthread_mutex_lock(&lock);
+  int found = 0;
+  for (size_t i = 0; i < capacity && !found; ++i)
+    if (table[i].data && table[i].cache == cache && table[i].instance == instance) {
+      visit(table[i].cache, context);
+      found = 1;
+    }
+  pthread_mutex_unlock(&lock);
+  return found;
+}

@@ -20,4 +20,9 @@ void* vsc_registry_insert(const void* data, int instance, void* cache);
 /// Unregister (data, instance) and return its cache (or NULL) for the caller to free.
 void* vsc_registry_remove(const void* data, int instance);
 
+/// If `cache` is registered as instance `instance`'s cache of some data, call
+/// visit(cache, context) while holding the registry's lock (so no thread frees
+/// it meanwhile) and return 1; else return 0. Scans the table: for resets, not steps.
+int vsc_registry_visit(const void* cache, int instance, void (*visit)(void* cache, void* context), void* context);
+
 #endif  // VISCERA_PLUGIN_CACHE_REGISTRY_H

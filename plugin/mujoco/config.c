@@ -2,6 +2,7 @@
 #include "config.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -11,11 +12,21 @@
 #include "keys.h"
 #include "viscera/vsc_layout.h"
 
-#define KEY_NAME(name, unit, default_value, meaning) #name,
-#define KEY_DOC(name, unit, default_value, meaning) {#name, unit, default_value, meaning},
+// keys.h's columns as vsc_plugin_key fields
+#define FIELD(member) (long)offsetof(vsc_plugin_config, member)
+#define NO_FIELD -1L
+#define CORE NULL, NULL
+#define VALUE(text) text, NULL
+#define DERIVED(words) NULL, words
+#define KEY_NAME(name, kind, field, minimum, maximum, unit, default_value, meaning) #name,
+#define KEY_ROW(name, kind, field, minimum, maximum, unit, default_value, meaning) \
+  {#name, kind, field, minimum, maximum, unit, default_value, meaning},
 const char* const vsc_plugin_attributes[] = {VSC_PLUGIN_KEYS(KEY_NAME)};
-const vsc_plugin_key_doc vsc_plugin_key_docs[] = {VSC_PLUGIN_KEYS(KEY_DOC)};
-const int vsc_plugin_attribute_count = (int)(sizeof(vsc_plugin_attributes) / sizeof(vsc_plugin_attributes[0]));
+const vsc_plugin_key vsc_plugin_keys[] = {VSC_PLUGIN_KEYS(KEY_ROW)};
+const int vsc_plugin_attribute_count = VSC_KEY_COUNT;
+
+// KEY_CHOICE values are written as int
+_Static_assert(sizeof(vsc_integrator) == sizeof(int) && sizeof(vsc_shape_kind) == sizeof(int), "enum size");
 
 #define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
 
@@ -83,89 +94,78 @@ static int parse_numbers(const char* text, double* out, int capacity) {
   }
 }
 
-// An enumerated key's value as its index in vsc_plugin_allowed_values (the
-// fallback when absent); on an unknown name the message lists the allowed ones.
-static int read_choice(reader* r, const char* key, int fallback, int* out) {
-  const char* text = raw(r, key);
-  const char* const* names = vsc_plugin_allowed_values(key);
-  *out = fallback;
-  if (!text) return 0;
-  for (int i = 0; names[i]; ++i)
-    if (strcmp(text, names[i]) == 0) {
-      *out = i;
-      return 0;
-    }
-  char allowed[256] = "";
+// "a, b or c": the allowed names of an enumerated key, for messages and docs.
+static void list_names(const char* const* names, const char* quote, char* out, size_t size) {
+  out[0] = 0;
   for (int i = 0; names[i]; ++i) {
-    size_t used = strlen(allowed);
-    snprintf(allowed + used, sizeof(allowed) - used, "%s%s", i == 0 ? "" : (names[i + 1] ? ", " : " or "), names[i]);
+    size_t used = strlen(out);
+    snprintf(out + used, size - used, "%s%s%s%s", i == 0 ? "" : (names[i + 1] ? ", " : " or "), quote, names[i], quote);
   }
-  return fail(r, "attribute '%s' = '%s' must be %s", key, text, allowed);
 }
 
-// A single finite number; `*present` says whether the key was given.
-static int read_number(reader* r, const char* key, double fallback, double* out, int* present) {
-  const char* text = raw(r, key);
-  if (present) *present = text != NULL;
-  if (!text) {
-    *out = fallback;
-    return 0;
-  }
-  double x;
-  if (parse_numbers(text, &x, 1) != 1) return fail(r, "attribute '%s' = '%s' is not a finite number", key, text);
-  *out = x;
-  return 0;
-}
-
-// The key's unit, from the table of keys (keys.h): refusals name it.
-static const char* unit_of(const char* key) {
-  for (int i = 0; i < vsc_plugin_attribute_count; ++i)
-    if (strcmp(vsc_plugin_key_docs[i].name, key) == 0) return vsc_plugin_key_docs[i].unit;
-  return "?";
-}
-
-static int read_positive(reader* r, const char* key, double fallback, double* out) {
-  const char* unit = unit_of(key);
-  if (read_number(r, key, fallback, out, NULL)) return -1;
-  if (!(*out > 0.0)) return fail(r, "attribute '%s' = '%s' must be positive (%s)", key, raw(r, key), unit);
-  return 0;
-}
-
-static int read_nonnegative(reader* r, const char* key, double fallback, double* out) {
-  const char* unit = unit_of(key);
-  if (read_number(r, key, fallback, out, NULL)) return -1;
-  if (!(*out >= 0.0)) return fail(r, "attribute '%s' = '%s' must be >= 0 (%s)", key, raw(r, key), unit);
-  return 0;
-}
-
-static int read_count(reader* r, const char* key, int fallback, int minimum, int maximum, int* out) {
-  const char* text = raw(r, key);
-  if (!text) {
-    *out = fallback;
-    return 0;
-  }
+// An integer, whitespace around it allowed.
+static int parse_integer(const char* text, long* out) {
   char* end = NULL;
   errno = 0;
-  long x = strtol(text, &end, 10);
+  *out = strtol(text, &end, 10);
   while (end && (*end == ' ' || *end == '\t' || *end == '\n')) ++end;
-  if (end == text || *end || errno == ERANGE) return fail(r, "attribute '%s' = '%s' is not an integer", key, text);
-  if (x < minimum) return fail(r, "attribute '%s' = '%s' must be at least %d", key, text, minimum);
-  if (x > maximum) return fail(r, "attribute '%s' = '%s' must be at most %d", key, text, maximum);
-  *out = (int)x;
-  return 0;
+  return end != text && !*end && errno != ERANGE;
 }
 
-// Exactly `count` numbers (for start, direction, box).
-static int read_vector(reader* r, const char* key, int count, const double* fallback, double* out) {
-  const char* text = raw(r, key);
-  if (!text) {
-    memcpy(out, fallback, sizeof(double) * (size_t)count);
-    return 0;
+// Key `index` of the table (keys.h): the model's text, else the table's default
+// text, read by the row's kind and bounds into the row's field. A core or
+// derived default leaves the field as it is (the caller fills derived ones).
+static int read_key(reader* r, vsc_plugin_config* c, int index) {
+  const vsc_plugin_key* key = &vsc_plugin_keys[index];
+  const char* given = raw(r, key->name);
+  c->given[index] = given != NULL;
+  const char* text = given ? given : key->value;
+  if (!text || key->kind == KEY_CUSTOM) return 0;
+  void* field = (char*)c + key->offset;
+  double x;
+  long k;
+  switch (key->kind) {
+    case KEY_REAL:
+    case KEY_POSITIVE:
+    case KEY_NONNEGATIVE:
+      if (parse_numbers(text, &x, 1) != 1) return fail(r, "attribute '%s' = '%s' is not a finite number", key->name, text);
+      if (key->kind == KEY_POSITIVE && !(x > 0.0))
+        return fail(r, "attribute '%s' = '%s' must be positive (%s)", key->name, text, key->unit);
+      if (key->kind == KEY_NONNEGATIVE && !(x >= 0.0))
+        return fail(r, "attribute '%s' = '%s' must be >= 0 (%s)", key->name, text, key->unit);
+      if (key->kind == KEY_REAL && !(x >= key->minimum && x <= key->maximum))
+        return fail(r, "attribute '%s' = '%s' must be in [%g, %g] (%s)", key->name, text, key->minimum, key->maximum,
+                    key->unit);
+      *(double*)field = x;
+      return 0;
+    case KEY_COUNT:
+      if (!parse_integer(text, &k)) return fail(r, "attribute '%s' = '%s' is not an integer", key->name, text);
+      if (k < key->minimum) return fail(r, "attribute '%s' = '%s' must be at least %ld", key->name, text, (long)key->minimum);
+      if (k > key->maximum) return fail(r, "attribute '%s' = '%s' must be at most %ld", key->name, text, (long)key->maximum);
+      *(int*)field = (int)k;
+      return 0;
+    case KEY_VECTOR: {
+      double buffer[8];
+      int count = (int)key->maximum;
+      if (parse_numbers(text, buffer, 8) != count)
+        return fail(r, "attribute '%s' = '%s' must be %d finite numbers (%s)", key->name, text, count, key->unit);
+      memcpy(field, buffer, sizeof(double) * (size_t)count);
+      return 0;
+    }
+    case KEY_CHOICE: {
+      const char* const* names = vsc_plugin_allowed_values(key->name);
+      for (int i = 0; names[i]; ++i)
+        if (strcmp(text, names[i]) == 0) {
+          *(int*)field = i;
+          return 0;
+        }
+      char allowed[256];
+      list_names(names, "", allowed, sizeof(allowed));
+      return fail(r, "attribute '%s' = '%s' must be %s", key->name, text, allowed);
+    }
+    case KEY_CUSTOM:
+      break;
   }
-  double buffer[8];
-  int got = parse_numbers(text, buffer, 8);
-  if (got != count) return fail(r, "attribute '%s' = '%s' must be %d finite numbers", key, text, count);
-  memcpy(out, buffer, sizeof(double) * (size_t)count);
   return 0;
 }
 
@@ -220,20 +220,12 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
 }
 
 static int read_shape(reader* r, vsc_plugin_config* c) {
-  static const double default_start[3] = {0.0, 0.0, 0.0}, default_direction[3] = {1.0, 0.0, 0.0};
-  static const double no_box[6] = {0, 0, 0, 0, 0, 0};
-  int shape;
-  if (read_choice(r, "shape", VSC_SHAPE_LINE, &shape)) return -1;
-  c->shape = (vsc_shape_kind)shape;
-  if (read_vector(r, "start", 3, default_start, c->start)) return -1;
-  if (read_vector(r, "direction", 3, default_direction, c->direction)) return -1;
   double norm = sqrt(c->direction[0] * c->direction[0] + c->direction[1] * c->direction[1] +
                      c->direction[2] * c->direction[2]);
   if (!(norm > 0.0) || !isfinite(norm)) return fail(r, "attribute 'direction' = '%s' must be a non-zero vector", raw(r, "direction"));
   for (int i = 0; i < 3; ++i) c->direction[i] /= norm;
-  if (read_vector(r, "box", 6, no_box, c->box)) return -1;
   if (c->shape == VSC_SHAPE_SERPENTINE) {
-    if (!raw(r, "box")) return fail(r, "attribute 'box' is required by 'shape' = 'serpentine' (6 numbers, m)");
+    if (!c->given[VSC_KEY_box]) return fail(r, "attribute 'box' is required by 'shape' = 'serpentine' (6 numbers, m)");
     for (int i = 0; i < 3; ++i)
       if (!(c->box[3 + i] > c->box[i])) return fail(r, "attribute 'box' = '%s' must give min then max corners", raw(r, "box"));
     double capacity = vsc_layout_serpentine_capacity(c->rod.radius, c->box);
@@ -294,139 +286,143 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
   if (joints < 0) return -1;
   if (joints != g->count)
     return fail(r, "attributes 'grasp_sites' = '%s' and 'grasp_joints' = '%s' must name as many sites as joints",
-                raw(r, "grasp_sites") ? raw(r, "grasp_sites") : "", raw(r, "grasp_joints") ? raw(r, "grasp_joints") : "");
+                c->given[VSC_KEY_grasp_sites] ? raw(r, "grasp_sites") : "", c->given[VSC_KEY_grasp_joints] ? raw(r, "grasp_joints") : "");
   for (int i = 0; i < joints; ++i) {
     int type = r->m->jnt_type[g->joint[i]];
     if (type != mjJNT_HINGE && type != mjJNT_SLIDE)
       return fail(r, "attribute 'grasp_joints' = '%s': joint '%s' must be a hinge or a slide (the jaw opening)",
                   raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
   }
-  return read_number(r, "grasp_closed_below", 0.1, &g->closed_below, NULL) ||
-         read_positive(r, "grasp_reach", 2.0 * c->rod.radius, &g->reach) ||
-         read_nonnegative(r, "grasp_stiffness", 1000.0, &g->stiffness) ||
-         read_nonnegative(r, "grasp_damping", 2.0, &g->damping) ||
-         read_positive(r, "grasp_slip_force", 5.0, &g->slip_force);
+  if (!c->given[VSC_KEY_grasp_reach]) g->reach = 2.0 * c->rod.radius;
+  return 0;
 }
 
-int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {
-  reader r = {m, instance, error, error_size};
-  memset(c, 0, sizeof(*c));
-  c->rod = vsc_default_rod_def();
-  c->step = vsc_default_step_options();
+// Defaults computed from other keys (DERIVED in keys.h), then the checks that
+// involve several keys.
+static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   vsc_rod_def* d = &c->rod;
-  int failed =
-      read_positive(&r, "length", d->length, &d->length) ||
-      read_count(&r, "control_points", d->control_count, 4, VSC_MAX_CONTROL_POINTS, &d->control_count) ||
-      read_positive(&r, "radius", d->radius, &d->radius) ||
-      read_count(&r, "samples_per_segment", d->samples_per_segment, 1, 64, &d->samples_per_segment);
-  if (failed) return -1;
+  const unsigned char* given = c->given;
   if ((double)(d->control_count - 1) * d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
-    return fail(&r, "attributes 'control_points' = %d and 'samples_per_segment' = %d give more than %d samples",
+    return fail(r, "attributes 'control_points' = %d and 'samples_per_segment' = %d give more than %d samples",
                 d->control_count, d->samples_per_segment, VSC_MAX_SAMPLES);
   // mass: given, or from the density of a full tube of the contact radius
-  double density = 1000.0;
-  int mass_given = 0, density_given = 0;
-  if (read_number(&r, "mass", 0.0, &d->mass, &mass_given) || read_number(&r, "density", 1000.0, &density, &density_given))
-    return -1;
-  if (mass_given && density_given) return fail(&r, "attributes 'mass' and 'density' are both given: give one");
-  if (mass_given && !(d->mass > 0.0)) return fail(&r, "attribute 'mass' = '%s' must be positive (kg)", raw(&r, "mass"));
-  if (!mass_given) {
-    if (!(density > 0.0)) return fail(&r, "attribute 'density' = '%s' must be positive (kg/m^3)", raw(&r, "density"));
-    d->mass = density * VSC_PI * d->radius * d->radius * d->length;
+  if (given[VSC_KEY_mass] && given[VSC_KEY_density]) return fail(r, "attributes 'mass' and 'density' are both given: give one");
+  if (!given[VSC_KEY_mass]) {
+    d->mass = c->density * VSC_PI * d->radius * d->radius * d->length;
     if (!isfinite(d->mass))
-      return fail(&r, "attribute 'density' = '%g' with 'radius' = '%g' and 'length' = '%g' gives a non-finite mass",
-                  density, d->radius, d->length);
+      return fail(r, "attribute 'density' = '%g' with 'radius' = '%g' and 'length' = '%g' gives a non-finite mass",
+                  c->density, d->radius, d->length);
   }
-  // material: a Young's modulus gives the axial EA and bending EI of a tube of
-  // the contact radius (a wall of the given thickness, else a solid section);
-  // then the stretch springs carry EA, the curvature term EI, and the paper's
-  // bend springs and global length term default to off
-  double young = 0.0, wall = 0.0;
-  int young_given = 0, wall_given = 0;
-  if (read_number(&r, "young_modulus", 0.0, &young, &young_given) ||
-      read_number(&r, "wall_thickness", 0.0, &wall, &wall_given))
-    return -1;
-  if (young_given && !(young > 0.0)) return fail(&r, "attribute 'young_modulus' = '%s' must be positive (Pa)", raw(&r, "young_modulus"));
-  if (wall_given && !(wall > 0.0 && wall <= d->radius))
-    return fail(&r, "attribute 'wall_thickness' = '%s' must be positive and at most 'radius' = %g (m)", raw(&r, "wall_thickness"), d->radius);
-  if (wall_given && !young_given) return fail(&r, "attribute 'wall_thickness' needs 'young_modulus'");
-  double area, second_moment;
-  vsc_tube_section(d->radius, wall_given ? wall : 0.0, &area, &second_moment);
-  double stretch_default = young_given ? young * area / d->length : d->stretch_stiffness * 4.0 / d->length;
-  double bend_default = young_given ? 0.0 : d->bend_stiffness * 4.0 / d->length;
-  double global_default = young_given ? 0.0 : d->global_stretch_stiffness;
-  double rigidity_default = young_given ? young * second_moment : 0.0;
-  failed =
-      read_positive(&r, "radius_max", d->radius, &c->radius_max) ||
-      read_positive(&r, "radius_min", c->radius_max, &c->radius_min) ||
-      // the springs' defaults describe one material at any length (stiffness x
-      // length constant); the global term is a length regulator acting on the
-      // end points, so scaling it up for short intestines would only make them
-      // unstable: its default does not scale
-      read_nonnegative(&r, "stretch_stiffness", stretch_default, &d->stretch_stiffness) ||
-      read_nonnegative(&r, "bend_stiffness", bend_default, &d->bend_stiffness) ||
-      read_nonnegative(&r, "global_stretch_stiffness", global_default, &d->global_stretch_stiffness) ||
-      read_nonnegative(&r, "bending_rigidity", rigidity_default, &d->bending_rigidity) ||
-      read_nonnegative(&r, "damping", d->damping, &d->damping) ||
-      read_positive(&r, "contact_stiffness", d->contact_stiffness, &d->contact_stiffness) ||
-      read_nonnegative(&r, "contact_damping", d->contact_damping, &d->contact_damping) ||
-      read_count(&r, "substeps", c->step.substeps, 1, 10000, &c->step.substeps) ||  // absent: chosen per step
-      read_count(&r, "divergence_retries", c->step.retries, 0, 10, &c->step.retries) ||
-      read_count(&r, "collision_spheres", vsc_default_collision_sphere_count(d->length, d->radius), 2,
-                 VSC_MAX_COLLISION_SPHERES, &d->collision_sphere_count);
-  if (failed) return -1;
-  c->auto_substeps = raw(&r, "substeps") == NULL;
-  if (d->collision_sphere_count < 2)  // the default overflowed
-    return fail(&r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
-                "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
-  int self_collision = 1;
-  failed = read_count(&r, "self_collision", 1, 0, 1, &self_collision) ||
-           read_nonnegative(&r, "self_friction", d->self_friction, &d->self_friction);
-  if (failed) return -1;
-  d->self_collision = self_collision;
-  // mesentery: tension-only tethers from the axis to a root line (off by default)
-  static const double no_root[6] = {0, 0, 0, 0, 0, 0};
-  if (read_nonnegative(&r, "mesentery_stiffness", 0.0, &d->mesentery_stiffness) ||
-      read_nonnegative(&r, "mesentery_length", 0.15, &d->mesentery_length) ||
-      read_count(&r, "mesentery_points", 32, 1, 100000, &d->mesentery_points) ||
-      read_vector(&r, "mesentery_root", 6, no_root, d->mesentery_root))
-    return -1;
-  if (d->mesentery_stiffness > 0.0 && !raw(&r, "mesentery_root"))
-    return fail(&r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
-  if (d->mesentery_stiffness == 0.0) d->mesentery_points = 0;
-  if (read_count(&r, "skin_rings_per_segment", 4, 1, 64, &c->skin_rings_per_segment) ||
-      read_count(&r, "skin_ring_points", 16, 3, 256, &c->skin_ring_points))
-    return -1;
-  c->friction = -1.0;
-  if (raw(&r, "friction") && read_nonnegative(&r, "friction", 0.0, &c->friction)) return -1;
-  if (c->radius_min > c->radius_max)
-    return fail(&r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->radius_min, c->radius_max);
+  if (!given[VSC_KEY_radius_max]) c->skin.radius_max = d->radius;
+  if (!given[VSC_KEY_radius_min]) c->skin.radius_min = c->skin.radius_max;
+  if (c->skin.radius_min > c->skin.radius_max)
+    return fail(r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->skin.radius_min, c->skin.radius_max);
+  // material: a Young's modulus gives the stretch springs EA and the curvature
+  // term EI, and turns the paper's bend springs and global length term off
+  if (given[VSC_KEY_wall_thickness] && !given[VSC_KEY_young_modulus])
+    return fail(r, "attribute 'wall_thickness' needs 'young_modulus'");
+  if (given[VSC_KEY_wall_thickness] && !(c->wall_thickness <= d->radius))
+    return fail(r, "attribute 'wall_thickness' = '%s' must be positive and at most 'radius' = %g (m)",
+                raw(r, "wall_thickness"), d->radius);
+  double stretch = 0.0, rigidity = 0.0;
+  if (given[VSC_KEY_young_modulus])
+    vsc_material_stiffnesses(c->young_modulus, d->radius, c->wall_thickness, d->length, &stretch, &rigidity);
+  // the springs' defaults describe one material at any length (stiffness x
+  // length constant); the global term regulates the end points' distance, so
+  // scaling it up for short intestines would only make them unstable
+  int young = given[VSC_KEY_young_modulus];
+  if (!given[VSC_KEY_stretch_stiffness])
+    d->stretch_stiffness = young ? stretch : core->stretch_stiffness * core->length / d->length;
+  if (!given[VSC_KEY_bend_stiffness]) d->bend_stiffness = young ? 0.0 : core->bend_stiffness * core->length / d->length;
+  if (!given[VSC_KEY_global_stretch_stiffness] && young) d->global_stretch_stiffness = 0.0;
+  if (!given[VSC_KEY_bending_rigidity]) d->bending_rigidity = rigidity;
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)
-    return fail(&r, "attributes 'stretch_stiffness', 'bend_stiffness' and 'global_stretch_stiffness' are all 0: "
+    return fail(r, "attributes 'stretch_stiffness', 'bend_stiffness' and 'global_stretch_stiffness' are all 0: "
                 "nothing holds the intestine together");
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
-    return fail(&r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(&r, "young_modulus"));
-  int integrator, lumped, clamp;
-  if (read_choice(&r, "integrator", VSC_INTEGRATOR_LEAPFROG, &integrator) ||
-      read_choice(&r, "mass_matrix", 1, &lumped) ||  // lumped unless told otherwise
-      read_choice(&r, "clamped", 0, &clamp))
-    return -1;
-  c->step.integrator = (vsc_integrator)integrator;
-  d->lumped_mass = lumped;
-  d->clamp_start = clamp & 1;
-  d->clamp_end = (clamp >> 1) & 1;
+    return fail(r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(r, "young_modulus"));
+  c->auto_substeps = !given[VSC_KEY_substeps];
+  if (!given[VSC_KEY_collision_spheres]) {
+    d->collision_sphere_count = vsc_default_collision_sphere_count(d->length, d->radius);
+    if (d->collision_sphere_count < 2)  // the default overflowed
+      return fail(r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
+                  "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
+  }
+  if (d->mesentery_stiffness > 0.0 && !given[VSC_KEY_mesentery_root])
+    return fail(r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
+  if (d->mesentery_stiffness == 0.0) d->mesentery_points = 0;
+  if (!given[VSC_KEY_friction]) c->friction = -1.0;  // each geom's own
+  d->clamp_start = c->clamped & 1;
+  d->clamp_end = (c->clamped >> 1) & 1;
   // refuse absurd resolutions here, with the keys that set them, rather than
   // let the allocation crash or the OOM killer end the process
   double bytes = vsc_rod_memory_bytes(d);
   if (bytes > VSC_MAX_ROD_BYTES)
-    return fail(&r, "attributes 'control_points' = %d, 'samples_per_segment' = %d and 'collision_spheres' = %d "
+    return fail(r, "attributes 'control_points' = %d, 'samples_per_segment' = %d and 'collision_spheres' = %d "
                 "would need %.1f GB, more than the %.1f GB one intestine may take", d->control_count,
                 d->samples_per_segment, d->collision_sphere_count, bytes / 1e9, VSC_MAX_ROD_BYTES / 1e9);
+  return 0;
+}
+
+// The config the core's defaults give, before any key is read.
+static void core_defaults(vsc_plugin_config* c) {
+  memset(c, 0, sizeof(*c));
+  c->rod = vsc_default_rod_def();
+  c->step = vsc_default_step_options();
+  c->skin = vsc_default_skin_def();
+}
+
+int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {
+  reader r = {m, instance, error, error_size};
+  core_defaults(c);
+  const vsc_rod_def core = c->rod;
+  for (int i = 0; i < VSC_KEY_COUNT; ++i)
+    if (read_key(&r, c, i)) return -1;
+  if (derive(&r, c, &core)) return -1;
   if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c)) {
     vsc_plugin_config_free(c);
     return -1;
   }
   return 0;
+}
+
+int vsc_plugin_key_field(int i, const char* field, char* out, int size) {
+  if (i < 0 || i >= VSC_KEY_COUNT || !field || !out || size < 1) return -1;
+  const vsc_plugin_key* key = &vsc_plugin_keys[i];
+  static const char* const kinds[] = {"real", "positive", "nonnegative", "count", "vector", "choice", "custom"};
+  const char* const* names = vsc_plugin_allowed_values(key->name);
+  char text[320] = "";
+  if (strcmp(field, "unit") == 0) return snprintf(out, (size_t)size, "%s", key->unit);
+  if (strcmp(field, "meaning") == 0) return snprintf(out, (size_t)size, "%s", key->meaning);
+  if (strcmp(field, "kind") == 0) return snprintf(out, (size_t)size, "%s", kinds[key->kind]);
+  if (strcmp(field, "values") == 0) {
+    switch (key->kind) {
+      case KEY_REAL:
+        if (isfinite(key->minimum) || isfinite(key->maximum))
+          snprintf(text, sizeof(text), "%g to %g", key->minimum, key->maximum);
+        else
+          snprintf(text, sizeof(text), "any");
+        break;
+      case KEY_POSITIVE: snprintf(text, sizeof(text), "> 0"); break;
+      case KEY_NONNEGATIVE: snprintf(text, sizeof(text), ">= 0"); break;
+      case KEY_COUNT: snprintf(text, sizeof(text), "%ld to %ld", (long)key->minimum, (long)key->maximum); break;
+      case KEY_VECTOR: snprintf(text, sizeof(text), "%d numbers", (int)key->maximum); break;
+      case KEY_CHOICE: list_names(names, "`", text, sizeof(text)); break;
+      case KEY_CUSTOM: snprintf(text, sizeof(text), "a list"); break;
+    }
+    return snprintf(out, (size_t)size, "%s", text);
+  }
+  if (strcmp(field, "default") != 0) return -1;
+  if (key->derived) return snprintf(out, (size_t)size, "%s", key->derived);
+  vsc_plugin_config c;  // a core default: print the core's value
+  core_defaults(&c);
+  const void* value = (const char*)&c + key->offset;
+  if (key->value) return snprintf(out, (size_t)size, key->kind == KEY_CHOICE ? "`%s`" : "%s", key->value);
+  switch (key->kind) {
+    case KEY_COUNT: return snprintf(out, (size_t)size, "%d", *(const int*)value);
+    case KEY_CHOICE: return snprintf(out, (size_t)size, "`%s`", names[*(const int*)value]);
+    default: return snprintf(out, (size_t)size, "%g", *(const double*)value);
+  }
 }
 
 int vsc_plugin_config_clamp(vsc_plugin_config* c, const double* q, char* error, int error_size) {

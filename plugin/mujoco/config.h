@@ -6,22 +6,51 @@
 
 #include <mujoco/mujoco.h>
 
+#include "keys.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_rod.h"
+#include "viscera/vsc_skin.h"
 
 /// Config attribute names, in the order MuJoCo is told about them (keys.h).
 extern const char* const vsc_plugin_attributes[];
 extern const int vsc_plugin_attribute_count;
 
-/// Each key's documentation row (keys.h), in the same order: unit, default and
-/// meaning as Markdown (static storage).
-typedef struct vsc_plugin_key_doc {
+/// Each key's index in the table (keys.h): VSC_KEY_length, ...
+#define VSC_KEY_INDEX(name, kind, field, minimum, maximum, unit, default_value, meaning) VSC_KEY_##name,
+enum { VSC_PLUGIN_KEYS(VSC_KEY_INDEX) VSC_KEY_COUNT };
+#undef VSC_KEY_INDEX
+
+/// How a key's value is read and bounded (see keys.h).
+typedef enum vsc_key_kind {
+  KEY_REAL,
+  KEY_POSITIVE,
+  KEY_NONNEGATIVE,
+  KEY_COUNT,
+  KEY_VECTOR,
+  KEY_CHOICE,
+  KEY_CUSTOM
+} vsc_key_kind;
+
+/// One row of the table of keys (keys.h; static storage).
+typedef struct vsc_plugin_key {
   const char* name;
+  vsc_key_kind kind;
+  long offset;           ///< the value's place in vsc_plugin_config (bytes), -1: read by its own code
+  double minimum;        ///< KEY_REAL and KEY_COUNT: smallest allowed value
+  double maximum;        ///< KEY_REAL and KEY_COUNT: largest; KEY_VECTOR: how many numbers
   const char* unit;
-  const char* default_value;
-  const char* meaning;
-} vsc_plugin_key_doc;
-extern const vsc_plugin_key_doc vsc_plugin_key_docs[];
+  const char* value;     ///< default read as if the user wrote it, or NULL (the core's, or derived)
+  const char* derived;   ///< the docs' words for a derived default, or NULL
+  const char* meaning;   ///< Markdown
+} vsc_plugin_key;
+extern const vsc_plugin_key vsc_plugin_keys[];
+
+/// Write key i's documentation field into out (size bytes, NUL-terminated):
+/// "unit", "default" (a core default printed from the core's value), "meaning",
+/// "kind" (real, positive, nonnegative, count, vector, choice, custom) or "values"
+/// (the allowed values in words, Markdown). Returns the full length, or -1 for an
+/// unknown key index or field.
+int vsc_plugin_key_field(int i, const char* field, char* out, int size);
 
 /// Initial shape of the axis.
 typedef enum vsc_shape_kind {
@@ -59,11 +88,12 @@ typedef struct vsc_plugin_config {
   vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
   vsc_step_options step;      ///< integrator, substeps per MuJoCo step, divergence retries
   int auto_substeps;          ///< 1: 'substeps' not given; chosen per step from the timestep (vsc_stable_substeps)
-  double radius_min;          ///< skin radius between control points (m)
-  double radius_max;          ///< skin radius at control points (m)
+  vsc_skin_def skin;          ///< skin resolution and radius profile
   double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]
-  int skin_rings_per_segment; ///< skin rings per spline segment
-  int skin_ring_points;       ///< skin vertices per ring
+  double density;             ///< kg/m^3, when the mass is not given
+  double young_modulus;       ///< Pa; 0: not given (the paper's springs)
+  double wall_thickness;      ///< m; 0: a solid section
+  int clamped;                ///< clamped ends: bit 0 start, bit 1 end
   vsc_shape_kind shape;
   double start[3];            ///< line start (m)
   double direction[3];        ///< line direction (unit)
@@ -72,6 +102,7 @@ typedef struct vsc_plugin_config {
   int point_count;
   int* pinned;                ///< pinned control point indices
   vsc_grasper_config grasp;   ///< jaws that hold the axis
+  unsigned char given[VSC_KEY_COUNT];  ///< 1 where the model gave the key (by VSC_KEY_ index)
 } vsc_plugin_config;
 
 /// Parse and validate the config of plugin instance `instance`. On a bad

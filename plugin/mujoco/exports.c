@@ -7,6 +7,7 @@
 #include <time.h>
 
 #include "config.h"
+#include "intestine.h"
 #include "state_layout.h"
 #include "viscera/viscera.h"  // the core's whole public API: a check that the umbrella compiles
 
@@ -20,12 +21,11 @@ VSC_EXPORT const char* viscera_attribute_name(int i) {
   return i >= 0 && i < vsc_plugin_attribute_count ? vsc_plugin_attributes[i] : 0;
 }
 
-/// Documentation of config attribute i (static storage): field 0 unit, 1
-/// default, 2 meaning (Markdown); NULL if out of range.
-VSC_EXPORT const char* viscera_attribute_doc(int i, int field) {
-  if (i < 0 || i >= vsc_plugin_attribute_count) return 0;
-  const vsc_plugin_key_doc* row = &vsc_plugin_key_docs[i];
-  return field == 0 ? row->unit : field == 1 ? row->default_value : field == 2 ? row->meaning : 0;
+/// Documentation of config attribute i (keys.h): `field` is "unit",
+/// "default", "meaning" (Markdown), "kind" or "values"; written into out (size
+/// bytes). Returns the text's full length, or -1 for an unknown index or field.
+VSC_EXPORT int viscera_attribute_field(int i, const char* field, char* out, int size) {
+  return vsc_plugin_key_field(i, field, out, size);
 }
 
 /// Allowed value i of an enumerated config key (integrator, shape, clamped,
@@ -146,28 +146,33 @@ VSC_EXPORT double viscera_collision_pass_seconds(const double* xyz, int count, d
   return best;
 }
 
-// The skin definition of intestine `instance`: its config, with the resolution
-// overridden where rings_per_segment / ring_points are positive.
 /// The skin of intestine `instance` (paper 3.2) from `state`, the instance's
 /// plugin_state (positions first, m): *vertex_count and *triangle_count
 /// receive its sizes; when they fit the capacities, vertices (m, 3 each), unit
 /// normals and triangles (3 vertex indices each) are written. A positive
-/// rings_per_segment / ring_points overrides the config's. One config read a
-/// call: Python guesses the sizes from its last call and calls again only when
-/// they changed. Returns 0 (built), 1 (too small: sizes only), or -1 (not an
+/// rings_per_segment / ring_points overrides the config's. The config is the
+/// one data `d` read when its caches were built (d may be NULL: then it is
+/// read here). Python guesses the sizes from its last call and calls again
+/// only when they changed. Returns 0 (built), 1 (too small: sizes only), or -1 (not an
 /// intestine, too few ring points, or a state that cannot be skinned).
-VSC_EXPORT int viscera_skin(const mjModel* m, int instance, int rings_per_segment, int ring_points,
+VSC_EXPORT int viscera_skin(const mjModel* m, const mjData* d, int instance, int rings_per_segment, int ring_points,
                             const double* state, int vertex_capacity, int triangle_capacity, double* vertices,
                             double* normals, int* triangles, int* vertex_count, int* triangle_count) {
-  vsc_plugin_config config;
-  if (read_intestine(m, instance, &config)) return -1;
   vsc_skin_def def;
-  def.rings_per_segment = rings_per_segment > 0 ? rings_per_segment : config.skin_rings_per_segment;
-  def.ring_points = ring_points > 0 ? ring_points : config.skin_ring_points;
-  def.radius_min = config.radius_min;
-  def.radius_max = config.radius_max;
-  int n = config.rod.control_count;
-  vsc_plugin_config_free(&config);
+  int n;
+  const vsc_plugin_config* cached = vsc_intestine_config(m, d, instance);
+  if (cached) {  // read when d's caches were built
+    def = cached->skin;
+    n = cached->rod.control_count;
+  } else {
+    vsc_plugin_config config;
+    if (read_intestine(m, instance, &config)) return -1;
+    def = config.skin;
+    n = config.rod.control_count;
+    vsc_plugin_config_free(&config);
+  }
+  if (rings_per_segment > 0) def.rings_per_segment = rings_per_segment;
+  if (ring_points > 0) def.ring_points = ring_points;
   if (def.ring_points < 3 || m->plugin_statenum[instance] < 3 * n) return -1;
   *vertex_count = vsc_skin_vertex_count(n, &def);
   *triangle_count = vsc_skin_triangle_count(n, &def);

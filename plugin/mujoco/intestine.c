@@ -213,9 +213,30 @@ static void intestine_destroy(mjData* d, int instance) {
   d->plugin_data[instance] = 0;
 }
 
-// plugin_data may be a pointer a pickled copy shares with its original: the
-// initial shape is recomputed from the config rather than read through it.
+typedef struct reset_request {
+  const mjModel* m;
+  mjtNum* plugin_state;
+  int done;
+} reset_request;
+
+// Under the registry's lock (the cache cannot be freed meanwhile): the config
+// read when the cache was built, and the initial shape laid out then.
+static void reset_from_cache(void* cache, void* context) {
+  intestine* it = (intestine*)cache;
+  reset_request* request = (reset_request*)context;
+  if (it->model != request->m) return;
+  write_initial_state(request->m, &it->config, it->initial_q, request->plugin_state);
+  request->done = 1;
+}
+
+// plugin_data is used only if the registry holds it as this instance's live
+// cache for this model: a pickled copy may carry a pointer it shares with its
+// original (the same model: the same initial state) or one from another
+// process. Otherwise the config is read again.
 static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  reset_request request = {m, plugin_state, 0};
+  if (plugin_data) vsc_registry_visit(plugin_data, instance, reset_from_cache, &request);
+  if (request.done) return;
   vsc_plugin_config config;
   char error[ERROR_SIZE];
   if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) return;  // checked at load
@@ -223,6 +244,11 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
       vsc_plugin_config_layout(&config, plugin_state, error, ERROR_SIZE) == 0)
     write_initial_state(m, &config, plugin_state, plugin_state);
   vsc_plugin_config_free(&config);
+}
+
+const vsc_plugin_config* vsc_intestine_config(const mjModel* m, const mjData* d, int instance) {
+  intestine* it = d ? (intestine*)vsc_registry_find(d, instance) : NULL;
+  return it && it->model == m ? &it->config : NULL;
 }
 
 // Tool force sensors of this instance: the wrench the intestine exerted on the
@@ -385,7 +411,7 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   // take 32k geoms for the default skin, past any scene's capacity
   static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f};
   int samples = it->rod->sample_count, n = it->config.rod.control_count;
-  double r_min = it->config.radius_min, r_max = it->config.radius_max;
+  double r_min = it->config.skin.radius_min, r_max = it->config.skin.radius_max;
   for (int a = 0; a + 1 < samples; ++a) {
     double x = ((double)a + 0.5) / (double)(samples - 1) * (double)(n - 1), u = x - floor(x);
     double radius = vsc_skin_radius(r_min, r_max, u);

@@ -8,7 +8,16 @@
 #ifndef VISCERA_PLUGIN_INTESTINE_H
 #define VISCERA_PLUGIN_INTESTINE_H
 
+#include <mujoco/mujoco.h>
+
+#include "config.h"
+
 /// Register viscera.intestine with MuJoCo.
 void vsc_plugin_register_intestine(void);
+
+/// The config of intestine `instance` as read once when data `d`'s caches were
+/// built for model `m` (owned by those caches: valid while d lives and is not
+/// stepped with another model), or NULL if d has none for m.
+const vsc_plugin_config* vsc_intestine_config(const mjModel* m, const mjData* d, int instance);
 
 #endif  // VISCERA_PLUGIN_INTESTINE_H

@@ -51,13 +51,15 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_collision_pass_seconds.argtypes = [
                 ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_int)]
             _ctypes_library.viscera_skin.restype = ctypes.c_int
-            _ctypes_library.viscera_skin.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+            _ctypes_library.viscera_skin.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
+                                                     ctypes.c_int,
                                                      ctypes.c_void_p, ctypes.c_int, ctypes.c_int] + [
                 ctypes.c_void_p] * 3 + [ctypes.POINTER(ctypes.c_int)] * 2
             _ctypes_library.viscera_intestine_energy.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_energy.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
-            _ctypes_library.viscera_attribute_doc.restype = ctypes.c_char_p
-            _ctypes_library.viscera_attribute_doc.argtypes = [ctypes.c_int, ctypes.c_int]
+            _ctypes_library.viscera_attribute_field.restype = ctypes.c_int
+            _ctypes_library.viscera_attribute_field.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_char_p,
+                                                                ctypes.c_int]
             _ctypes_library.viscera_allowed_value.restype = ctypes.c_char_p
             _ctypes_library.viscera_allowed_value.argtypes = [ctypes.c_char_p, ctypes.c_int]
             _ctypes_library.viscera_state_block_count.restype = ctypes.c_int

@@ -29,11 +29,23 @@ def attribute_names() -> tuple[str, ...]:
     return tuple(lib.viscera_attribute_name(i).decode() for i in range(lib.viscera_attribute_count()))
 
 
+ATTRIBUTE_FIELDS = ("kind", "values", "unit", "default", "meaning")
+
+
+def _attribute_field(index: int, field: str) -> str:
+    library, buffer = _library.native(), ctypes.create_string_buffer(512)
+    length = library.viscera_attribute_field(index, field.encode(), buffer, len(buffer))
+    if length >= len(buffer):
+        buffer = ctypes.create_string_buffer(length + 1)
+        library.viscera_attribute_field(index, field.encode(), buffer, len(buffer))
+    return buffer.value.decode()
+
+
 def attribute_docs() -> dict[str, dict[str, str]]:
-    """Each config key's unit, default and meaning (Markdown), from the plugin's one table of keys
+    """Each config key's kind (real, positive, nonnegative, count, vector, choice, custom), allowed
+    values, unit, default and meaning (Markdown), from the plugin's one table of keys
     (plugin/mujoco/keys.h), in the order MuJoCo is told them."""
-    lib = _library.native()
-    return {name: {field: lib.viscera_attribute_doc(i, k).decode() for k, field in enumerate(("unit", "default", "meaning"))}
+    return {name: {field: _attribute_field(i, field) for field in ATTRIBUTE_FIELDS}
             for i, name in enumerate(attribute_names())}
 
 
@@ -318,7 +330,7 @@ def skin(model: mujoco.MjModel, data: mujoco.MjData, instance: int | str = 0,
         vertices, normals = np.empty((nv, 3)), np.empty((nv, 3))
         triangles = np.empty((nt, 3), dtype=np.int32)
         status = _library.native().viscera_skin(
-            ctypes.c_void_p(model._address), index, rings, points, state.ctypes.data_as(ctypes.c_void_p), nv, nt,
+            ctypes.c_void_p(model._address), ctypes.c_void_p(data._address), index, rings, points, state.ctypes.data_as(ctypes.c_void_p), nv, nt,
             vertices.ctypes.data_as(ctypes.c_void_p), normals.ctypes.data_as(ctypes.c_void_p),
             triangles.ctypes.data_as(ctypes.c_void_p), ctypes.byref(counts[0]), ctypes.byref(counts[1]))
         if status != 1:

@@ -48,19 +48,16 @@ SECONDS_PER_INPUT = float(os.environ.get("VISCERA_FUZZ_SECONDS_PER_INPUT", "60")
 STEPS = 100
 
 KEYS = viscera.attribute_names()
-FLOAT_KEYS = ("length", "mass", "density", "radius", "radius_min", "radius_max", "stretch_stiffness",
-              "bend_stiffness", "global_stretch_stiffness", "damping", "contact_stiffness", "contact_damping",
-              "friction", "self_friction", "mesentery_stiffness", "mesentery_length", "grasp_closed_below",
-              "grasp_reach", "grasp_stiffness", "grasp_damping", "grasp_slip_force", "young_modulus",
-              "wall_thickness", "bending_rigidity")
-COUNT_KEYS = ("control_points", "substeps", "collision_spheres", "samples_per_segment", "self_collision",
-              "skin_rings_per_segment", "skin_ring_points", "mesentery_points", "divergence_retries")
-ENUMS = {key: viscera.allowed_values(key) for key in ("integrator", "shape", "clamped", "mass_matrix")}
-VECTORS = {"start": 3, "direction": 3, "box": 6, "mesentery_root": 6}
+# each key's category from the plugin's table of keys (plugin/mujoco/keys.h): a new key is fuzzed by its kind
+KINDS = {key: doc["kind"] for key, doc in viscera.attribute_docs().items()}
+FLOAT_KEYS = tuple(key for key, kind in KINDS.items() if kind in ("real", "positive", "nonnegative"))
+COUNT_KEYS = tuple(key for key, kind in KINDS.items() if kind == "count")
+ENUMS = {key: viscera.allowed_values(key) for key, kind in KINDS.items() if kind == "choice"}
+VECTORS = {key: int(viscera.attribute_docs()[key]["values"].split()[0]) for key, kind in KINDS.items()
+           if kind == "vector"}
 NAME_KEYS = ("grasp_sites", "grasp_joints")
-# every key has a generator below (a new key must get one)
-assert set(KEYS) == set(FLOAT_KEYS) | set(COUNT_KEYS) | set(ENUMS) | set(VECTORS) | set(NAME_KEYS) | {
-    "points", "pinned"}, sorted(set(KEYS))
+# the custom keys have generators of their own below (a new one must get one)
+assert {key for key, kind in KINDS.items() if kind == "custom"} == set(NAME_KEYS) | {"points", "pinned"}, KINDS
 
 GARBAGE = ("", " ", "abc", "1 2", "1e", "0x10", "--1", "1,5", "nan", "-nan", "inf", "-inf", "+inf", "1e999",
            "-1e999", "1e-999", "9" * 400, "0" * 50 + "1", "\u00e9", "1\t2", "true")
@@ -104,19 +101,28 @@ FLOAT_RANGES = {"length": (0.05, 5.0), "mass": (1e-3, 10.0), "density": (100.0, 
                 "grasp_closed_below": (-1.0, 1.0), "grasp_reach": (1e-3, 0.1), "grasp_stiffness": (0.0, 1e5),
                 "grasp_damping": (0.0, 100.0), "grasp_slip_force": (0.1, 100.0), "young_modulus": (1e3, 1e7),
                 "wall_thickness": (1e-4, 0.01), "bending_rigidity": (0.0, 1.0)}
-assert set(FLOAT_RANGES) == set(FLOAT_KEYS)
+# plausible ranges of the keys above; a key without one is drawn by its kind
+KIND_RANGES = {"real": (-1.0, 1.0), "positive": (1e-3, 10.0), "nonnegative": (0.0, 10.0)}
 COUNT_RANGES = {"control_points": (4, 300), "substeps": (1, 8), "collision_spheres": (2, 600),
                 "samples_per_segment": (1, 8), "self_collision": (0, 1), "skin_rings_per_segment": (1, 8),
                 "skin_ring_points": (3, 32), "mesentery_points": (1, 64), "divergence_retries": (0, 6)}
+
+
+def count_range(key: str) -> tuple[int, int]:
+    """The key's plausible counts: listed above, else the first few its table allows."""
+    if key in COUNT_RANGES:
+        return COUNT_RANGES[key]
+    low, high = (int(x) for x in viscera.attribute_docs()[key]["values"].split(" to "))
+    return low, min(high, low + 8)
 plausible = st.floats(-1.0, 1.0).map(lambda x: f"{x:.4f}")
 
 
 def valid_value(key: str, site_names: list[str], joint_names: list[str]):
     """Values a careful user might write: in range, yet anywhere in it (the stiff, the tiny, the fast)."""
     if key in FLOAT_KEYS:
-        return st.floats(*FLOAT_RANGES[key]).map(repr)
+        return st.floats(*FLOAT_RANGES.get(key, KIND_RANGES[KINDS[key]])).map(repr)
     if key in COUNT_KEYS:
-        return st.integers(*COUNT_RANGES[key]).map(str)
+        return st.integers(*count_range(key)).map(str)
     if key in ENUMS:
         return st.sampled_from(ENUMS[key])
     if key == "box":

@@ -43,6 +43,14 @@ void vsc_tube_section(double radius, double wall_thickness, double* area, double
   *second_moment = 0.25 * VSC_PI * (r2 * r2 - i2 * i2);
 }
 
+void vsc_material_stiffnesses(double young_modulus, double radius, double wall_thickness, double length,
+                              double* stretch_stiffness, double* bending_rigidity) {
+  double area, second_moment;
+  vsc_tube_section(radius, wall_thickness, &area, &second_moment);
+  *stretch_stiffness = young_modulus * area / length;
+  *bending_rigidity = young_modulus * second_moment;
+}
+
 static int finite_nonneg(double x) { return isfinite(x) && x >= 0.0; }
 static int finite_pos(double x) { return isfinite(x) && x > 0.0; }
 

@@ -109,6 +109,13 @@ int vsc_default_collision_sphere_count(double length, double radius);
 /// (N) and EI (N m^2) are the rod's axial stiffness and bending rigidity.
 void vsc_tube_section(double radius, double wall_thickness, double* area, double* second_moment);
 
+/// A tube of Young's modulus E (Pa), outer radius (m), wall thickness (m; 0:
+/// solid) and length (m) as the rod's parameters: the whole axis's stretch
+/// stiffness EA / length (N/m, vsc_rod_def.stretch_stiffness) and the bending
+/// rigidity EI (N m^2, vsc_rod_def.bending_rigidity).
+void vsc_material_stiffnesses(double young_modulus, double radius, double wall_thickness, double length,
+                              double* stretch_stiffness, double* bending_rigidity);
+
 /// A rod: the definition plus caches derived from it. Owns all its arrays.
 /// Evaluation functions write into the scratch arrays, so one rod must not be
 /// evaluated from two threads at once (give each thread its own rod).
