@@ -4,9 +4,9 @@
     python docs/tables.py --check    # exit 1 if a page differs from its JSON (tests/python/test_docs.py)
 
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
-is a function below, fed by docs/validation/results.json (python -m viscera.validate),
-docs/bench/results.json (python -m viscera.bench --json), docs/bench/cavity.json
-(python -m viscera.bench_cavity --json) or the plugin's table of config keys
+is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
+docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
+(python python/tools/bench_cavity.py --json) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
 

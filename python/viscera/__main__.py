@@ -49,9 +49,8 @@ def _renderer(model: mujoco.MjModel) -> mujoco.Renderer:
 
 def _render_png(renderer: mujoco.Renderer, model: mujoco.MjModel, data: mujoco.MjData, path: str,
                 camera: int | None) -> None:
-    import matplotlib.image
     renderer.update_scene(data, camera=camera if camera is not None else (0 if model.ncam > 0 else -1))
-    matplotlib.image.imsave(path, renderer.render())
+    cli.save_png(path, renderer.render())
 
 
 def run(scene: str, duration: float, png: str | None = None, camera: str | None = None, quiet: bool = False,

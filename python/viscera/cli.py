@@ -142,3 +142,9 @@ def output_file(*suffixes: str) -> Callable[[str], str]:
 
     check.__name__ = f"{'/'.join(suffixes)} file"  # argparse names the type in some messages
     return check
+
+
+def save_png(path: str | os.PathLike, rgb) -> None:
+    """Write an (H, W, 3) uint8 image as a PNG (Pillow, which meshcat brings)."""
+    from PIL import Image
+    Image.fromarray(rgb).save(path, format="PNG")

@@ -32,8 +32,8 @@ def register() -> None:
     import gymnasium
     for task, env_id in ENV_IDS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point="viscera.gymnasium_env:TaskEnv",
-                               vector_entry_point="viscera.vector:make_threads", kwargs={"task": task})
+            gymnasium.register(id=env_id, entry_point="viscera.scale.gym_env:TaskEnv",
+                               vector_entry_point="viscera.scale.vector:make_threads", kwargs={"task": task})
 
 
 class _RegisterAfterImport(importlib.abc.MetaPathFinder):

@@ -1,9 +1,16 @@
-"""Shared helpers: small MJCF scenes around one intestine."""
+"""Shared helpers: small MJCF scenes around one intestine; the checkout's tools importable."""
+
+import pathlib
+import sys
 
 import mujoco
 import pytest
 
 import viscera
+
+# The tools (benchmarks, validation cases, settle, soak) are not installed with the library:
+# they run from the checkout as scripts, and the tests import them from there.
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "python" / "tools"))
 
 
 def scene_xml(body: str = "", options: str = 'timestep="0.002"', name: str = "gut", assets: str = "", **config) -> str:

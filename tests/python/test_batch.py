@@ -1,4 +1,4 @@
-"""viscera.batch: N states and N control sequences stepped together, bit-identical to serial stepping."""
+"""viscera.scale.batch: N states and N control sequences stepped together, bit-identical to serial stepping."""
 
 import mujoco
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 import viscera
 from viscera import batch
-from viscera.bench_rollout import batch_inputs  # bent intestines, smooth tool controls
+from bench_rollout import batch_inputs  # bent intestines, smooth tool controls
 from viscera.tasks import clear_area
 
 

@@ -21,13 +21,23 @@ SCENES = ROOT / "assets" / "scenes"
 PLANE = SCENES / "fall_on_plane.xml"
 QUICK = 60  # s: loading and checking takes about one
 LONG = 1e5  # simulated s: hours of stepping, so an error that comes after any simulation times out
-TOOLS = ["", ".settle", ".peers", ".soak", ".validate", ".gesture", ".bench", ".bench_cavity", ".bench_rollout",
-         ".bench_scale", ".meshcat_server"]
+TOOL_SCRIPTS = ROOT / "python" / "tools"  # the checkout's tools, not installed (tests/python/conftest.py)
+# every command: its name in usage lines, and the module whose main() it runs
+TOOLS = {"python -m viscera": "viscera.__main__", "python -m viscera.tasks.gesture": "viscera.tasks.gesture",
+         "python -m viscera.meshcat_server": "viscera.meshcat_server",
+         **{f"python python/tools/{name}.py": name.replace("/", ".")
+            for name in ("settle", "soak", "validate", "validation/peers", "bench_fall", "bench_cavity",
+                         "bench_rollout", "bench_scale")}}
 
 
-def viscera(*args, cwd=None, timeout=QUICK, module="viscera") -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", module, *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=timeout)
+def command(prog: str) -> list[str]:
+    """The argv that runs `prog` from the checkout's root."""
+    words = prog.split()
+    return [sys.executable, *words[1:3]] if words[1] == "-m" else [sys.executable, str(ROOT / words[1])]
+
+
+def viscera(*args, cwd=None, timeout=QUICK, prog="python -m viscera") -> subprocess.CompletedProcess:
+    return subprocess.run([*command(prog), *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=timeout)
 
 
 def scene(tmp_path, old: str, new: str) -> pathlib.Path:
@@ -181,21 +191,20 @@ def test_a_good_run_still_works(tmp_path):
 
 # --- every tool ---
 
-@pytest.mark.parametrize("tool", TOOLS)
-def test_help_of_every_tool(tool):
-    result = viscera("--help", module="viscera" + tool, timeout=30)  # peers used to run its comparison
+@pytest.mark.parametrize("prog", TOOLS)
+def test_help_of_every_tool(prog):
+    result = viscera("--help", prog=prog, timeout=30)  # peers used to run its comparison
     assert result.returncode == 0, result.stderr
-    assert result.stdout.startswith(f"usage: python -m viscera{tool} "), result.stdout
-    if tool == "":
-        assert "``" not in result.stdout  # no RST markup
+    assert result.stdout.startswith(f"usage: {prog} "), result.stdout
+    assert "``" not in result.stdout or prog != "python -m viscera"  # no RST markup
 
 
 class _Parsed(Exception):
     pass
 
 
-@pytest.mark.parametrize("tool", TOOLS)
-def test_every_option_has_a_help_text(monkeypatch, tool):
+@pytest.mark.parametrize("prog", TOOLS)
+def test_every_option_has_a_help_text(monkeypatch, prog):
     """The parser each main() builds (caught at parse_args), subcommands included."""
     parsers = []
 
@@ -206,7 +215,7 @@ def test_every_option_has_a_help_text(monkeypatch, tool):
     monkeypatch.setattr(argparse.ArgumentParser, "parse_args", catch)
     monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", catch)
     with pytest.raises(_Parsed):
-        importlib.import_module(f"viscera{tool or '.__main__'}").main([])
+        importlib.import_module(TOOLS[prog]).main([])
     missing = []
     while parsers:
         parser = parsers.pop()
@@ -218,15 +227,18 @@ def test_every_option_has_a_help_text(monkeypatch, tool):
     assert not missing
 
 
-@pytest.mark.parametrize("tool, args, names", [
-    (".soak", ["--minutes", "-1"], ["--minutes", "-1"]),
-    (".gesture", ["--duration", "nan"], ["--duration", "nan"]),
-    (".gesture", ["--png-after", "no/such/folder/a.png"], ["--png-after", "does not exist"]),
-    (".bench", ["--duration", "nan"], ["--duration", "nan"]),
-    (".settle", ["--out", "s.xml", "--duration", "inf"], ["--duration", "inf"]),
+SETTLE = "python python/tools/settle.py"
+
+
+@pytest.mark.parametrize("prog, args, names", [
+    ("python python/tools/soak.py", ["--minutes", "-1"], ["--minutes", "-1"]),
+    ("python -m viscera.tasks.gesture", ["--duration", "nan"], ["--duration", "nan"]),
+    ("python -m viscera.tasks.gesture", ["--png-after", "no/such/folder/a.png"], ["--png-after", "does not exist"]),
+    ("python python/tools/bench_fall.py", ["--duration", "nan"], ["--duration", "nan"]),
+    (SETTLE, ["--out", "s.xml", "--duration", "inf"], ["--duration", "inf"]),
 ])
-def test_other_tools_check_their_options_first(tmp_path, tool, args, names):
-    assert_usage_error(viscera(*args, module="viscera" + tool, cwd=tmp_path), f"python -m viscera{tool}", *names)
+def test_other_tools_check_their_options_first(tmp_path, prog, args, names):
+    assert_usage_error(viscera(*args, prog=prog, cwd=tmp_path), prog, *names)
 
 
 # --- settle ---
@@ -240,14 +252,14 @@ def test_settle_writes_nothing_without_an_output_path(tmp_path):
     shipped.parent.mkdir(parents=True)
     shipped.write_text((SCENES / "abdomen.xml").read_text())
     before = shipped.stat().st_mtime_ns
-    result = viscera(module="viscera.settle", cwd=tmp_path)
-    assert_usage_error(result, "python -m viscera.settle", "--out")
+    result = viscera(prog=SETTLE, cwd=tmp_path)
+    assert_usage_error(result, SETTLE, "--out")
     assert shipped.stat().st_mtime_ns == before
 
 
 def test_settle_reports_a_missing_scene(tmp_path):
-    result = viscera("--scene", tmp_path / "none.xml", "--out", tmp_path / "out.xml", module="viscera.settle")
-    assert_one_line(result, "viscera.settle: error:", "none.xml")
+    result = viscera("--scene", tmp_path / "none.xml", "--out", tmp_path / "out.xml", prog=SETTLE)
+    assert_one_line(result, "settle.py: error:", "none.xml")
     assert not (tmp_path / "out.xml").exists()
 
 
@@ -256,15 +268,15 @@ def test_settle_refuses_an_intestine_too_long_for_the_cavity(tmp_path):
     assert 'key="length" value="3"' in text
     long = tmp_path / "long.xml"
     long.write_text(text.replace('key="length" value="3"', 'key="length" value="30"'))
-    result = viscera("--scene", long, "--out", tmp_path / "out.xml", "--duration", LONG, module="viscera.settle")
-    assert_one_line(result, "viscera.settle: error:", "long.xml", "15.00 m asked")  # per half
+    result = viscera("--scene", long, "--out", tmp_path / "out.xml", "--duration", LONG, prog=SETTLE)
+    assert_one_line(result, "settle.py: error:", "long.xml", "15.00 m asked")  # per half
     assert not (tmp_path / "out.xml").exists()
 
 
 def test_settle_defaults_reproduce_the_shipped_scene(tmp_path):
     """The default settling time is the one the shipped abdomen was settled with."""
     out = tmp_path / "settled.xml"
-    result = viscera("--out", out, "--quiet", module="viscera.settle", cwd=ROOT, timeout=300)
+    result = viscera("--out", out, "--quiet", prog=SETTLE, cwd=ROOT, timeout=300)
     assert result.returncode == 0, result.stderr
     assert np.abs(_points(out) - _points(SCENES / "abdomen.xml")).max() < 2e-6  # written to 1e-6 m
 
@@ -272,7 +284,7 @@ def test_settle_defaults_reproduce_the_shipped_scene(tmp_path):
 # --- peers ---
 
 def test_peers_hint_names_the_projects_extra(monkeypatch):
-    from viscera import peers
+    from validation import peers
     monkeypatch.setattr(peers, "available", lambda peer: False)
     assert 'pip install ".[peers]"' in peers.run_peer("pyelastica", "cantilever", 4)["unsupported"]
 

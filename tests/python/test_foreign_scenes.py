@@ -188,12 +188,12 @@ def test_the_stability_estimate_matches_the_measured_limit(config, integrator, l
     safe side for RK4, where the measured limit is 1.00 to 1.14 times it, 3-4 % low for leapfrog;
     docs in vsc_integrate.h), so the default substeps stay inside the real limit (omega h <= 2.7
     and 1.8) without wasting many."""
-    from viscera import validate
+    from validation.integrators import study as validate
     base = dict(damping=0, self_collision=0, shape="line", **config)
     xml = (f'<mujoco><option timestep="0.002"/>{viscera.extension_xml("rod", **base)}<worldbody/></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
     out = stability(model)
-    with validate._quiet_warnings():
+    with validate.quiet_warnings():
         measured, _ = validate.largest_stable_step(base, integrator)
     assert low < measured * out[0] / limit < 1.15
     assert measured * out[0] > trusted  # the trusted bound is inside the real limit

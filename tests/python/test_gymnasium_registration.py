@@ -31,7 +31,7 @@ def test_module_prefixed_id_imports_viscera():
     result = run_python(f"import gymnasium as gym\nenv = gym.make('viscera:{ENV_IDS['clear_area']}')\n"
                         "print(type(env.unwrapped).__module__)")
     assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "viscera.gymnasium_env"
+    assert result.stdout.strip() == "viscera.scale.gym_env"
 
 
 def test_import_viscera_does_not_import_gymnasium_or_the_tasks():

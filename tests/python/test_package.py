@@ -69,7 +69,7 @@ def test_cli_rejects_bad_duration(tmp_path):
 
 
 def test_benchmark_runs_both_peers(tmp_path):
-    from viscera import bench
+    import bench_fall as bench
     result = bench.run(duration=0.05, runs=1, quiet=True)
     assert set(result["peers"]) == {"viscera", "viscera_noself", "flexcomp", "flexcomp_self"}
     for peer in result["peers"].values():
@@ -105,3 +105,35 @@ def test_intestines_skips_other_plugins_and_reports_resolved_defaults():
     assert (gut.rest_length, gut.radius, gut.control_count, gut.samples_per_segment) == (2.0, 0.0125, 250, 2)
     assert gut.sphere_count == 161
     assert gut.mass == pytest.approx(900 * np.pi * 0.0125**2 * 2.0)
+
+
+def test_the_learning_interfaces_keep_their_old_names():
+    """viscera.batch, viscera.vector and viscera.gymnasium_env are the modules of viscera.scale
+    (one home for the learning and scale-out interfaces), the very same objects."""
+    import viscera.batch
+    import viscera.gymnasium_env
+    import viscera.scale.batch
+    import viscera.scale.gym_env
+    import viscera.scale.vector
+    import viscera.vector
+    assert viscera.batch is viscera.scale.batch and viscera.vector is viscera.scale.vector
+    assert viscera.gymnasium_env is viscera.scale.gym_env
+    assert viscera.batch.BatchStepper is viscera.scale.batch.BatchStepper
+
+
+def test_the_library_imports_no_tool_dependencies_and_ships_no_tools():
+    """Importing viscera, loading and stepping a task and making its gymnasium env import none of
+    matplotlib, tqdm, pandas or ray; the benchmarks, validation, soak and settle are tools in the
+    checkout (python/tools), not modules of the installed library."""
+    code = ("import sys, importlib.util, viscera, viscera.tasks, viscera.scale.gym_env\n"
+            "env = viscera.tasks.load('clear_area', seed=0)\n"
+            "env.reset()\n"
+            "env.step(env.action_spec().generate_value())\n"
+            "viscera.scale.gym_env.TaskEnv('clear_area', seed=0).reset(seed=0)\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'matplotlib', 'tqdm', 'pandas', 'ray'}))\n"
+            "print([m for m in ('bench', 'bench_cavity', 'bench_rollout', 'bench_scale', 'validate', 'peers',\n"
+            "                   'references', 'settle', 'soak')\n"
+            "       if importlib.util.find_spec('viscera.' + m) is not None])\n")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split("\n")[:2] == ["[]", "[]"], result.stdout

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import viscera
-from viscera import settle
+import settle
 
 from test_package import ROOT
 
@@ -63,7 +63,7 @@ def test_the_vigorous_sweep_needs_no_recovery(config):
     tool presses piled loops against the wall: with the contact damping's rate left out of the
     substep count, leapfrog with the band mass matrix took 3 substeps there and blew up; it takes
     4 now, the lumped default 3."""
-    from viscera import bench_cavity
+    import bench_cavity
     text = ABDOMEN.read_text()
     added = "".join(f'<config key="{key}" value="{value}"/>' for key, value in config.items())
     model = mujoco.MjModel.from_xml_string(text.replace('<config key="length"', added + '<config key="length"', 1))

@@ -9,7 +9,7 @@ import pytest
 from mujoco import rollout
 
 import viscera.tasks
-from viscera.gesture import ClearingGesture
+from viscera.tasks.gesture import ClearingGesture
 
 
 def random_actions(env, seed, count):
@@ -84,8 +84,8 @@ def test_the_scripted_gesture_clears_the_target_and_again_after_a_reset():
 
 
 def test_gesture_command_prints_the_uncovered_fraction_last():
-    """`python -m viscera.gesture` plays the whole gesture (withdrawal included)."""
-    done = subprocess.run([sys.executable, "-m", "viscera.gesture", "--quiet"], capture_output=True, text=True,
+    """`python -m viscera.tasks.gesture` plays the whole gesture (withdrawal included)."""
+    done = subprocess.run([sys.executable, "-m", "viscera.tasks.gesture", "--quiet"], capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stderr
     last = done.stdout.strip().splitlines()[-1]

@@ -14,8 +14,8 @@ import pytest
 from mujoco import rollout
 
 import viscera
-from viscera.batch import serial_step  # mj_step from each FULLPHYSICS state with a zero warmstart
-from viscera.bench_rollout import batch_inputs  # bent intestines, smooth tool controls
+from viscera.scale.batch import serial_step  # mj_step from each FULLPHYSICS state with a zero warmstart
+from bench_rollout import batch_inputs  # bent intestines, smooth tool controls
 from viscera.tasks import clear_area
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS

@@ -8,7 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import viscera
-from viscera import gymnasium_env, vector
+from viscera.scale import gym_env as gymnasium_env, vector
 
 SHORT = {"time_limit": 0.1}  # 5 control steps: autoreset happens inside the tests
 

@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 
 import viscera.tasks
-from viscera import observations
+from viscera.scale import observations
 from viscera.checks import checked_integer, finite_array
 
 SEED_LIMIT = 2 ** 32  # numpy's RandomState, which dm_control tasks draw from, takes seeds below this
@@ -48,7 +48,7 @@ class Trajectory:
     actions: np.ndarray        # (T, nu): the actions taken (the tools' actuator controls)
     rewards: np.ndarray        # (T,): the task's reward after each action
     discounts: np.ndarray      # (T,): dm_env discounts (0 where the task ended the episode)
-    observation_layout: dict   # key -> (slice of the D entries, shape), see viscera.observations
+    observation_layout: dict   # key -> (slice of the D entries, shape), see viscera.scale.observations
     ended: bool = False        # the episode ended (time limit or task) within the trajectory
 
     def __iter__(self):
@@ -111,8 +111,8 @@ def random_policy(env, seed: int):
 
 
 def gesture_policy(env, seed: int):
-    """The scripted clearing gesture (viscera.gesture); it does not use the seed."""
-    from viscera.gesture import ClearingGesture
+    """The scripted clearing gesture (viscera.tasks.gesture); it does not use the seed."""
+    from viscera.tasks.gesture import ClearingGesture
     return ClearingGesture(env)
 
 

@@ -1,6 +1,6 @@
 """The cavity scene's control loop: real-time factor and per-step latency, with peers.
 
-    python -m viscera.bench_cavity [--runs 5] [--loads gesture sweep] [--json out.json]
+    python python/tools/bench_cavity.py [--runs 5] [--loads gesture sweep] [--json out.json]
 
 Two loads, each a list of controls replayed on bare MjModel/MjData, timing
 every mj_step (the full control loop step: MuJoCo's step and the plugin's
@@ -52,7 +52,7 @@ from viscera.tasks import clear_area  # noqa: E402
 
 def record_gesture_controls(duration: float = 20.0) -> np.ndarray:
     """The gesture's controls at every physics step (shape (steps, nu))."""
-    from viscera.gesture import ClearingGesture
+    from viscera.tasks.gesture import ClearingGesture
     env = viscera.tasks.load("clear_area", seed=0, time_limit=duration, end_on_success=False)
     policy = ClearingGesture(env)
     step = env.reset()
@@ -179,7 +179,7 @@ def report(results: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera.bench_cavity", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python python/tools/bench_cavity.py", description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=cli.positive_int, default=5,
                         help="replays per variant, medians reported (default 5)")
     parser.add_argument("--duration", type=cli.duration, default=20.0,

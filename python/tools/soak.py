@@ -1,6 +1,6 @@
 """Soak: the clear_area task under random tool motion for a long simulated time.
 
-    python -m viscera.soak --minutes 30          # the figures in docs/robustness.md and docs/soak/
+    python python/tools/soak.py --minutes 30          # the figures in docs/robustness.md and docs/soak/
 
 One episode with no reset (the time limit is the soak's length). Every few
 seconds each tool takes a new random target: a joint configuration whose tool
@@ -192,7 +192,7 @@ def plot(result: dict, path: pathlib.Path) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera.soak", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python python/tools/soak.py", description=__doc__.split("\n")[0])
     parser.add_argument("--minutes", type=cli.positive_float_up_to(cli.MAX_DURATION_S / 60, "min"), default=30.0, help="simulated minutes (default 30)")
     parser.add_argument("--seed", type=cli.natural_int, default=0, help="seed of the random tool motion (default 0)")
     parser.add_argument("--out", type=pathlib.Path, default=OUT_DIR, help="where results.json and soak.png go")

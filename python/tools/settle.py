@@ -1,7 +1,7 @@
 """Settle the intestine into the abdominal cavity and write its rest shape into the scene.
 
-    python -m viscera.settle --out settled.xml [--scene assets/scenes/abdomen.xml] [--duration 6]
-    python -m viscera.settle --out assets/scenes/abdomen.xml    # update the shipped scene
+    python python/tools/settle.py --out settled.xml [--scene assets/scenes/abdomen.xml] [--duration 6]
+    python python/tools/settle.py --out assets/scenes/abdomen.xml    # update the shipped scene
 
 The scene's intestine is laid out as two serpentines side by side: the first
 half rises from the duodenojejunal flexure (its pinned first point, on the
@@ -138,7 +138,7 @@ def _with_shape(text: str, shape: str, points: np.ndarray | None, digits: int = 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m viscera.settle",
+        prog="python python/tools/settle.py",
         description="Settle the intestine into the abdominal cavity and write the scene with its rest shape "
                     "to --out (required: nothing is written without it).",
         epilog=f"To update the shipped scene, name it: --out {SCENE}")
@@ -155,7 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    with cli.user_errors("viscera.settle", args.verbose):
+    with cli.user_errors("settle.py", args.verbose):
         cli.load_model(args.scene)  # the scene as given loads, before a long settle
         text = args.scene.read_text()
         try:

@@ -1,6 +1,6 @@
 """Peer rod simulators on the validation cases, so validate.py can chart them beside ours.
 
-    from viscera import peers
+    from validation import peers
     peers.run_peer("mujoco_cable", "cantilever", 16)
 
 Peers (all one thread, each run at 0.8x its own largest stable step, found by a
@@ -76,15 +76,22 @@ from __future__ import annotations
 import argparse
 import functools
 import importlib.util
+import pathlib
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable
 
+if __package__ in (None, ""):  # run as a script: python/tools, not this folder, is the import root
+    sys.path[0] = str(pathlib.Path(__file__).resolve().parents[1])
+
 import mujoco
 import numpy as np
 
-from viscera.references import (AREA, BETA_L, CATENARY_SAG, DENSITY, ELASTICA, G, MU, RADIUS, SECOND_MOMENT,
+from validation.common import (AREA, BETA_L, DENSITY, G, MU, RADIUS, SECOND_MOMENT,
                                 peak_frequency)
+from validation.catenary.case import CATENARY_SAG
+from validation.tip_load.case import ELASTICA
 
 PEERS: tuple[str, ...] = ("mujoco_flexcomp", "mujoco_cable", "pyelastica")
 
@@ -528,10 +535,10 @@ def run_peer(peer: str, case: str, segments: int) -> dict:
 
 def build_parser() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(
-        prog="python -m viscera.peers",
+        prog="python python/tools/validation/peers.py",
         description="Run every peer rod simulator (MuJoCo's cable and flexcomp, PyElastica) on every validation "
                     "case at its smallest resolution and print value, reference, error and cost. PyElastica is "
-                    'optional: pip install ".[peers]". The full charts: python -m viscera.validate.')
+                    'optional: pip install ".[peers]". The full charts: python python/tools/validate.py.')
 
 
 def main(argv: list[str] | None = None) -> None:

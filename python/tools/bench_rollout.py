@@ -1,12 +1,12 @@
 """Threaded rollouts of the cavity scene: throughput against threads, with the serial loop as peer.
 
-    python -m viscera.bench_rollout [--batch 8] [--steps 250] [--runs 5] [--threads 1 2]
+    python python/tools/bench_rollout.py [--batch 8] [--steps 250] [--runs 5] [--threads 1 2]
 
 A batch of abdomen scenes (the task's scene, tools moving on smooth random
 controls, each from a slightly bent intestine) is stepped three ways in the
 same process, on the same initial states and controls:
   - python loop: mj_step on one MjData per batch entry, from Python (the peer);
-  - rollout, k threads: viscera.batch.BatchStepper (mujoco.rollout with k MjData
+  - rollout, k threads: viscera.scale.batch.BatchStepper (mujoco.rollout with k MjData
     sharing one MjModel; the GIL is released; the plugin keeps no globals, so threads scale).
 The results of every threaded run are checked bit-identical to the serial
 rollout's. Reported, medians over runs: physics steps per second, the speed-up
@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from viscera import cli  # noqa: E402
-from viscera.batch import BatchStepper  # noqa: E402
+from viscera.scale.batch import BatchStepper  # noqa: E402
 from viscera.tasks import clear_area  # noqa: E402
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -104,7 +104,7 @@ def measure(batch: int = 8, steps: int = 250, runs: int = 5, thread_counts=(1, 2
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera.bench_rollout", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python python/tools/bench_rollout.py", description=__doc__.split("\n")[0])
     parser.add_argument("--batch", type=cli.positive_int, default=8, help="scenes per rollout (default 8)")
     parser.add_argument("--steps", type=cli.positive_int, default=250,
                         help="physics steps per scene (default 250: 0.5 s)")

@@ -1,6 +1,6 @@
 """Scaling of the clearing task: environment steps per second against workers, per backend.
 
-    python -m viscera.bench_scale [--runs 5] [--workers 1 2 4] [--envs-per-worker 2] [--steps 100]
+    python python/tools/bench_scale.py [--runs 5] [--workers 1 2 4] [--envs-per-worker 2] [--steps 100]
                                   [--json docs/scale/results.json] [--png docs/scale/scaling.png]
 
 Weak scaling, all in this process: each worker holds `envs-per-worker`
@@ -14,7 +14,7 @@ show where scaling stops: the speed-up cannot exceed the core count. Ray is
 started with as many logical CPUs as the largest worker count, so that it too
 may oversubscribe the cores.
 
-Also measured: the gymnasium vector envs (viscera.vector, one step of all
+Also measured: the gymnasium vector envs (viscera.scale.vector, one step of all
 envs per call), the bytes of trajectory per env step, the start-up time of each
 backend's workers, and the round trip of an empty Ray actor call, the physics' share of an env step (the
 part threads run in parallel) and a worker's memory: the figures
@@ -37,9 +37,10 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from viscera import cli, scale, vector
-from viscera.batch import available_cores
-from viscera.bench_rollout import batch_inputs
+from viscera import cli, scale
+from viscera.scale import vector
+from viscera.scale.batch import available_cores
+from bench_rollout import batch_inputs
 from viscera.tasks import clear_area
 
 TASK = "clear_area"
@@ -229,7 +230,7 @@ def plot(result: dict, path: str) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera.bench_scale", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python python/tools/bench_scale.py", description=__doc__.split("\n")[0])
     parser.add_argument("--workers", type=cli.positive_int, nargs="+", default=None,
                         help="worker counts (default: 1, 2, the cores and twice the cores)")
     parser.add_argument("--envs-per-worker", type=cli.positive_int, default=2,

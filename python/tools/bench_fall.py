@@ -1,6 +1,6 @@
 """Benchmarks, ours against MuJoCo's 1D flexcomp in the same process.
 
-    python -m viscera.bench [--duration 5] [--runs 3] [--json out.json] [--plot scaling.png]
+    python python/tools/bench_fall.py [--duration 5] [--runs 3] [--json out.json] [--plot scaling.png]
 
 1. The paper's fall: the same 4 m, 12.5 mm-radius, 1000 kg/m^3 tube of 250
    points, tilted by 0.1 rad, dropped from 0.1 m onto a plane, one thread each,
@@ -208,7 +208,7 @@ def plot_scaling(scaling: dict, path: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m viscera.bench", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python python/tools/bench_fall.py", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration", type=cli.duration, default=5.0,
                         help="simulated seconds per run (default 5)")

@@ -1,6 +1,6 @@
 """The clearing gesture: pick the loops lying over the target area and lay them aside.
 
-    python -m viscera.gesture [--seed 0] [--duration 20] [--png-before B.png --png-after A.png]
+    python -m viscera.tasks.gesture [--seed 0] [--duration 20] [--png-before B.png --png-after A.png]
 
 A closed-loop scripted policy for the clear_area task (dm_control convention:
 ``action = policy(time_step)``), built from the observations alone: it reads
@@ -216,12 +216,11 @@ def run(seed: int = 0, duration: float = 20.0, quiet: bool = False, png_before: 
 
 
 def _render(physics, path: str) -> None:
-    import matplotlib.image
-    matplotlib.image.imsave(path, physics.render(height=480, width=640, camera_id="top"))
+    cli.save_png(path, physics.render(height=480, width=640, camera_id="top"))
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m viscera.gesture", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m viscera.tasks.gesture", description=__doc__.split("\n")[0])
     parser.add_argument("--seed", type=cli.natural_int, default=0,
                         help="the task's seed (default 0; clear_area starts every episode from the same scene, "
                         "so today the gesture is the same for every seed)")

@@ -1,0 +1,119 @@
+"""The viscera tasks behind the gymnasium interface, with dm_env's semantics kept exact.
+
+    import gymnasium as gym
+    env = gym.make("viscera/ClearArea-v0")            # registered by import viscera (viscera.gymnasium_ids)
+    envs = gym.make_vec("viscera/ClearArea-v0", num_envs=4, vectorization_mode="vector_entry_point")  # threads
+    env = viscera.scale.gym_env.TaskEnv("clear_area", seed=0)
+
+A thin adapter of ours rather than shimmy's DmControlCompatibilityV0: shimmy
+imports gymnasium's MuJoCo renderer (imageio, GLFW) on import, re-seeds a
+RandomState the dm_control task never reads, and offers only dict observations,
+which CleanRL-style loops cannot batch into one tensor. Here:
+
+- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s) does;
+  clear_area draws nothing from it: every episode starts from the same scene), then
+  returns the FIRST time step's observation; its info carries step_type only (dm_env's
+  FIRST discount is None, which gymnasium could not batch beside floats).
+- step's info carries step_type and discount.
+- step returns the dm_env reward (float), and ends an episode exactly as dm_env
+  does: a LAST step with discount 0 is `terminated` (the task ended it: the area is
+  clear), a LAST step with discount > 0 is `truncated` (the time limit). Stepping
+  past the end raises; dm_env would silently start a new episode instead.
+- Observations are flat float64 vectors, the dm_env observation entries in the
+  task's order (`observation_layout` gives each key's slice and shape); with
+  flatten=False they are a gymnasium Dict of the same arrays. Nothing is cast,
+  clipped or rescaled: values are bit-identical to the dm_env time step's.
+- Actions are the dm_env action (the tools' actuator controls, in the action
+  spec's bounds); out-of-range values are clamped by MuJoCo, as under dm_env. A
+  non-finite or wrong-sized action is refused by name before it reaches MuJoCo.
+"""
+
+from __future__ import annotations
+
+import collections
+
+import gymnasium
+import numpy as np
+from dm_env import specs
+
+import viscera.tasks
+from viscera.scale import observations
+from viscera.checks import finite_array
+
+
+def _box(spec) -> gymnasium.spaces.Box:
+    if isinstance(spec, specs.BoundedArray):
+        low = np.broadcast_to(spec.minimum, spec.shape).astype(spec.dtype)
+        high = np.broadcast_to(spec.maximum, spec.shape).astype(spec.dtype)
+        return gymnasium.spaces.Box(low, high, spec.shape, spec.dtype)
+    return gymnasium.spaces.Box(-np.inf, np.inf, spec.shape, spec.dtype)
+
+
+class TaskEnv(gymnasium.Env):
+    """One viscera task (a dm_env.Environment) as a gymnasium.Env; see the module doc."""
+
+    metadata = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool = True,
+                 render_mode: str | None = None, render_size: tuple[int, int] = (240, 320), **task_kwargs):
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
+        self.task_name = task
+        self.dm_env = viscera.tasks.load(task, seed=seed, **task_kwargs)
+        self.flatten = flatten
+        self.render_mode = render_mode
+        self.render_size = render_size  # (height, width) in pixels
+        self.metadata = dict(self.metadata, render_fps=1.0 / self.dm_env.control_timestep())
+        observation_spec = self.dm_env.observation_spec()
+        self.observation_layout = observations.layout(observation_spec)
+        if flatten:
+            size = observations.size(self.observation_layout)
+            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
+        else:
+            self.observation_space = gymnasium.spaces.Dict(
+                collections.OrderedDict((key, _box(spec)) for key, spec in observation_spec.items()))
+        self.action_space = _box(self.dm_env.action_spec())
+        self._episode_over = True
+
+    def observation(self, dm_observation) -> np.ndarray | dict:
+        """The gymnasium observation of a dm_env observation (flat: the entries concatenated in order)."""
+        if not self.flatten:
+            return collections.OrderedDict((k, np.asarray(v)) for k, v in dm_observation.items())
+        return observations.flatten(dm_observation, self.observation_layout)
+
+    def unflatten(self, observation: np.ndarray) -> dict:
+        """The per-key arrays of a flat observation (views; also works on a batch, last axis flat)."""
+        return observations.unflatten(observation, self.observation_layout)
+
+    @staticmethod
+    def _info(time_step) -> dict:
+        if time_step.first():
+            return {"step_type": int(time_step.step_type)}
+        return {"step_type": int(time_step.step_type), "discount": float(time_step.discount)}
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            viscera.tasks.reseed(self.dm_env, seed)
+        time_step = self.dm_env.reset()
+        self._episode_over = False
+        return self.observation(time_step.observation), self._info(time_step)
+
+    def step(self, action):
+        if self._episode_over:
+            raise RuntimeError("step() after the episode ended (or before reset()): call reset() first")
+        action = finite_array("action", action, self.action_space.shape)
+        time_step = self.dm_env.step(action)
+        terminated = truncated = False
+        if time_step.last():
+            self._episode_over = True
+            terminated = time_step.discount == 0.0
+            truncated = not terminated
+        return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated,
+                self._info(time_step))
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            height, width = self.render_size
+            return self.dm_env.physics.render(height=height, width=width)
+        return None
