@@ -27,7 +27,7 @@ int vsc_mujoco_holds_update(const mjModel* m, mjData* d, const vsc_grasper_confi
       double distance = vsc_rod_nearest_abscissa(rod, q, origin, &s);
       st[0] = GRASP_CLOSED_EMPTY;
       if (distance <= g->reach) {
-        vsc_basis basis = vsc_spline_basis(rod->n, s);
+        vsc_basis basis = vsc_spline_basis(vsc_rod_control_count(rod), s);
         vsc_basis_point(&basis, q, point);
         double offset[3] = {point[0] - origin[0], point[1] - origin[1], point[2] - origin[2]};
         st[0] = GRASP_HOLDING;

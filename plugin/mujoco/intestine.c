@@ -322,7 +322,7 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
 static int step_substeps(const mjModel* m, intestine* it) {
   if (!it->config.auto_substeps) return it->config.step.substeps;
   return vsc_stable_substeps(it->config.step.integrator, it->elastic_frequency, it->contact_frequency,
-                             it->rod->contact_damping_rate,
+                             vsc_rod_contact_damping_rate(it->rod),
                              m->opt.timestep);
 }
 
@@ -410,7 +410,7 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   // the skin's radius profile on a capsule chain: a triangle per mjvGeom would
   // take 32k geoms for the default skin, past any scene's capacity
   static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f};
-  int samples = it->rod->sample_count, n = it->config.rod.control_count;
+  int samples = vsc_rod_sample_count(it->rod), n = it->config.rod.control_count;
   double r_min = it->config.skin.radius_min, r_max = it->config.skin.radius_max;
   for (int a = 0; a + 1 < samples; ++a) {
     double x = ((double)a + 0.5) / (double)(samples - 1) * (double)(n - 1), u = x - floor(x);
@@ -418,9 +418,9 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     mjvGeom* geom = scn->geoms + scn->ngeom;
     mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);
-    const vsc_rod* rod = it->rod;
-    mjtNum from[3] = {rod->sample_x[a], rod->sample_y[a], rod->sample_z[a]};
-    mjtNum to[3] = {rod->sample_x[a + 1], rod->sample_y[a + 1], rod->sample_z[a + 1]};
+    mjtNum from[3], to[3];
+    vsc_rod_sample_point(it->rod, a, from);
+    vsc_rod_sample_point(it->rod, a + 1, to);
     mjv_connector(geom, mjGEOM_CAPSULE, radius, from, to);
     geom->category = mjCAT_DYNAMIC;
     scn->ngeom++;

@@ -8,6 +8,7 @@
 
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_rod.h"
+#include "vsc_contact_internal.h"
 #include "vsc_test.h"
 
 #define N 60

@@ -7,6 +7,7 @@
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_layout.h"
+#include "vsc_contact_internal.h"
 #include "vsc_test.h"
 
 // A bent intestine, stretched by `stretch` (1.02: 2 %), released at rest

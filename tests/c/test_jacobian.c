@@ -6,6 +6,7 @@
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_jacobian.h"
+#include "vsc_contact_internal.h"
 #include "vsc_test.h"
 
 enum { N_POINTS = 8, SIZE = 3 * N_POINTS };

@@ -1,5 +1,5 @@
 // Contacts: candidate lists from grid passes (segments, then spheres), and the narrow phase per evaluation.
-#include "viscera/vsc_contact.h"
+#include "vsc_contact_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

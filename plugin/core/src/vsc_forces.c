@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "viscera/vsc_band.h"
-#include "viscera/vsc_contact.h"
+#include "vsc_contact_internal.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_rod.h"
 

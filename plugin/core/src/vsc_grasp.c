@@ -1,5 +1,6 @@
 // Grasp springs and the nearest axis point (see vsc_grasp.h).
 #include "viscera/vsc_grasp.h"
+#include "vsc_rod_internal.h"
 
 #include <math.h>
 

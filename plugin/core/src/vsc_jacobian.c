@@ -5,7 +5,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "viscera/vsc_contact.h"
+#include "vsc_contact_internal.h"
 #include "viscera/vsc_grasp.h"
 
 // Entry (row, col), row >= col, of a wide band of half-width w.

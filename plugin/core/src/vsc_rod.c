@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "viscera/vsc_band.h"
-#include "viscera/vsc_contact.h"
+#include "vsc_contact_internal.h"
 
 
 vsc_rod_def vsc_default_rod_def(void) {
@@ -307,3 +307,15 @@ void vsc_rod_destroy(vsc_rod* rod) {
   vsc_contact_lists_destroy(rod->lists);
   free(rod);
 }
+
+int vsc_rod_control_count(const vsc_rod* rod) { return rod->n; }
+
+int vsc_rod_sample_count(const vsc_rod* rod) { return rod->sample_count; }
+
+void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]) {
+  out[0] = rod->sample_x[a];
+  out[1] = rod->sample_y[a];
+  out[2] = rod->sample_z[a];
+}
+
+double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_damping_rate; }

@@ -40,8 +40,6 @@
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_spline.h"
 
-typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact.c
-
 /// Creation parameters. Initialise with vsc_default_rod_def().
 typedef struct vsc_rod_def {
   int control_count;                 ///< control points n (>= 4)
@@ -116,61 +114,11 @@ void vsc_tube_section(double radius, double wall_thickness, double* area, double
 void vsc_material_stiffnesses(double young_modulus, double radius, double wall_thickness, double length,
                               double* stretch_stiffness, double* bending_rigidity);
 
-/// A rod: the definition plus caches derived from it. Owns all its arrays.
-/// Evaluation functions write into the scratch arrays, so one rod must not be
-/// evaluated from two threads at once (give each thread its own rod).
-typedef struct vsc_rod {
-  vsc_rod_def def;           ///< copy of the definition (def.pinned points to `pinned`)
-  int n;                     ///< control points
-  int sample_count;          ///< spring sample points N
-  double rest_spacing;       ///< l0 (m)
-  double stretch_spring;     ///< k_s per spring (N/m)
-  double bend_spring;        ///< k_b per spring (N/m)
-  vsc_basis* sample_basis;   ///< basis of each sample (N)
-  vsc_basis* sphere_basis;   ///< basis of each collision sphere (collision_sphere_count)
-  double* mass_band;         ///< M, band layout of vsc_band.h (n x 4) (kg)
-  double* mass_factor;       ///< Cholesky factor of M with pinned rows replaced by identity (n x 4)
-  double* mass_row_sum;      ///< sum_j M_kj, the gravity weights (n) (kg)
-  int* pinned;               ///< pinned indices (pinned_count)
-  unsigned char* is_pinned;  ///< 1 where control point k is pinned (n)
-  int* gather_first;         ///< first sample that control point k depends on (n)
-  int* gather_count;         ///< number of consecutive samples it depends on (n)
-  int* gather_offset;        ///< start of its weights in gather_weight (n)
-  double* gather_weight;     ///< b_k(s_a) for those samples: the transpose of sample_basis
-  // scratch, overwritten by every evaluation; structure of arrays so the
-  // spring loops vectorise
-  double* sample_x;          ///< sample positions (N each) (m)
-  double* sample_y;
-  double* sample_z;
-  double* force_x;           ///< elastic forces on samples (N each) (N)
-  double* force_y;
-  double* force_z;
-  double* edge_x;            ///< spring vectors, then tension vectors (N each)
-  double* edge_y;
-  double* edge_z;
-  double* edge_length;       ///< spring lengths (N) (m)
-  double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
-  double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
-  double* stage;             ///< integrator stages (8 x 3n)
-  int jacobian_half_width;   ///< half-bandwidth of the force Jacobian over the 3n unknowns (vsc_jacobian.h)
-  double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
-  double* system;            ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
-  double* factor_row;        ///< factorisation scratch (jacobian_half_width + 1)
-  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state,
-                             ///< then energy_state
-  double* energy_state;      ///< q, v (3n each) at which energy_active was computed
-  double energy_active;      ///< kinetic + elastic energy at energy_state (J)
-  int energy_known;          ///< 1 once energy_state holds a state
-  vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
-  vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
-  int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
-  double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
-  double contact_damping_rate;  ///< the stiffest contact mode's damping rate, c omega_contact^2 / k (1/s),
-                                ///< set by vsc_rod_frequencies (0 before)
-  int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
-  vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
-  double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
-} vsc_rod;
+/// A rod: the definition plus caches derived from it and scratch (its layout
+/// is private to the core, src/vsc_rod_internal.h). Evaluation functions write
+/// into its scratch, so one rod must not be evaluated from two threads at once
+/// (give each thread its own rod).
+typedef struct vsc_rod vsc_rod;
 
 /// Validate `def` and build a rod. On success *out owns a new rod (release
 /// with vsc_rod_destroy); on failure *out is NULL.
@@ -231,5 +179,19 @@ void vsc_rod_update_samples(vsc_rod* rod, const double* q);
 /// Collision sphere centres and velocities into rod->sphere_xyz / sphere_velocity
 /// (v may be NULL: velocities are then left untouched).
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
+
+/// The rod's control points n.
+int vsc_rod_control_count(const vsc_rod* rod);
+
+/// The rod's spring sample points N (vsc_rod_update_samples places them).
+int vsc_rod_sample_count(const vsc_rod* rod);
+
+/// Sample point `a` (m, 3) as the last vsc_rod_update_samples (or force
+/// evaluation) placed it.
+void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]);
+
+/// The stiffest contact mode's damping rate c omega_contact^2 / k (1/s), as
+/// vsc_rod_frequencies last set it (0 before).
+double vsc_rod_contact_damping_rate(const vsc_rod* rod);
 
 #endif  // VISCERA_VSC_ROD_H

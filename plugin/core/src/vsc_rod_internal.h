@@ -1,0 +1,66 @@
+// The rod's layout: its caches and scratch, private to the core (and its tests).
+// The public API (viscera/vsc_rod.h) sees vsc_rod as an opaque handle.
+#ifndef VISCERA_VSC_ROD_INTERNAL_H
+#define VISCERA_VSC_ROD_INTERNAL_H
+
+#include "viscera/vsc_grid.h"
+#include "viscera/vsc_rod.h"
+
+typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact.c
+
+/// A rod (viscera/vsc_rod.h): the definition plus caches derived from it. Owns
+/// all its arrays.
+struct vsc_rod {
+  vsc_rod_def def;           ///< copy of the definition (def.pinned points to `pinned`)
+  int n;                     ///< control points
+  int sample_count;          ///< spring sample points N
+  double rest_spacing;       ///< l0 (m)
+  double stretch_spring;     ///< k_s per spring (N/m)
+  double bend_spring;        ///< k_b per spring (N/m)
+  vsc_basis* sample_basis;   ///< basis of each sample (N)
+  vsc_basis* sphere_basis;   ///< basis of each collision sphere (collision_sphere_count)
+  double* mass_band;         ///< M, band layout of vsc_band.h (n x 4) (kg)
+  double* mass_factor;       ///< Cholesky factor of M with pinned rows replaced by identity (n x 4)
+  double* mass_row_sum;      ///< sum_j M_kj, the gravity weights (n) (kg)
+  int* pinned;               ///< pinned indices (pinned_count)
+  unsigned char* is_pinned;  ///< 1 where control point k is pinned (n)
+  int* gather_first;         ///< first sample that control point k depends on (n)
+  int* gather_count;         ///< number of consecutive samples it depends on (n)
+  int* gather_offset;        ///< start of its weights in gather_weight (n)
+  double* gather_weight;     ///< b_k(s_a) for those samples: the transpose of sample_basis
+  // scratch, overwritten by every evaluation; structure of arrays so the
+  // spring loops vectorise
+  double* sample_x;          ///< sample positions (N each) (m)
+  double* sample_y;
+  double* sample_z;
+  double* force_x;           ///< elastic forces on samples (N each) (N)
+  double* force_y;
+  double* force_z;
+  double* edge_x;            ///< spring vectors, then tension vectors (N each)
+  double* edge_y;
+  double* edge_z;
+  double* edge_length;       ///< spring lengths (N) (m)
+  double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
+  double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
+  double* stage;             ///< integrator stages (8 x 3n)
+  int jacobian_half_width;   ///< half-bandwidth of the force Jacobian over the 3n unknowns (vsc_jacobian.h)
+  double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
+  double* system;            ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
+  double* factor_row;        ///< factorisation scratch (jacobian_half_width + 1)
+  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state,
+                             ///< then energy_state
+  double* energy_state;      ///< q, v (3n each) at which energy_active was computed
+  double energy_active;      ///< kinetic + elastic energy at energy_state (J)
+  int energy_known;          ///< 1 once energy_state holds a state
+  vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
+  vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
+  int self_gap;              ///< segments closer than this many indices never collide (see vsc_contact.h)
+  double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
+  double contact_damping_rate;  ///< the stiffest contact mode's damping rate, c omega_contact^2 / k (1/s),
+                                ///< set by vsc_rod_frequencies (0 before)
+  int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
+  vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
+  double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
+};
+
+#endif  // VISCERA_VSC_ROD_INTERNAL_H
