@@ -352,6 +352,10 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
     return fail(r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
   if (d->mesentery_stiffness == 0.0) d->mesentery_points = 0;
   if (!given[VSC_KEY_friction]) c->friction = -1.0;  // each geom's own
+  if (given[VSC_KEY_marked_band] &&
+      !(c->marked_band[0] >= 0.0 && c->marked_band[0] < c->marked_band[1] && c->marked_band[1] <= d->length))
+    return fail(r, "attribute 'marked_band' = '%s' must be from, to with 0 <= from < to <= 'length' = %g (m)",
+                raw(r, "marked_band"), d->length);
   d->clamp_start = c->clamped & 1;
   d->clamp_end = (c->clamped >> 1) & 1;
   // refuse absurd resolutions here, with the keys that set them, rather than

@@ -94,6 +94,7 @@ typedef struct vsc_plugin_config {
   double young_modulus;       ///< Pa; 0: not given (the paper's springs)
   double wall_thickness;      ///< m; 0: a solid section
   int clamped;                ///< clamped ends: bit 0 start, bit 1 end
+  double marked_band[2];      ///< drawn in its own colour: from, to (m along the rest axis); given[VSC_KEY_marked_band]
   vsc_shape_kind shape;
   double start[3];            ///< line start (m)
   double direction[3];        ///< line direction (unit)

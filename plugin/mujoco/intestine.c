@@ -409,7 +409,10 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   vsc_rod_update_samples(it->rod, q);
   // the skin's radius profile on a capsule chain: a triangle per mjvGeom would
   // take 32k geoms for the default skin, past any scene's capacity
-  static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f};
+  static const float color[4] = {0.85f, 0.45f, 0.45f, 1.0f}, marked[4] = {0.25f, 0.5f, 0.9f, 1.0f};
+  const vsc_plugin_config* c = &it->config;
+  double band_from = c->given[VSC_KEY_marked_band] ? c->marked_band[0] / c->rod.length : 2.0;
+  double band_to = c->given[VSC_KEY_marked_band] ? c->marked_band[1] / c->rod.length : -1.0;
   int samples = vsc_rod_sample_count(it->rod), n = it->config.rod.control_count;
   double r_min = it->config.skin.radius_min, r_max = it->config.skin.radius_max;
   for (int a = 0; a + 1 < samples; ++a) {
@@ -417,7 +420,8 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
     double radius = vsc_skin_radius(r_min, r_max, u);
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     mjvGeom* geom = scn->geoms + scn->ngeom;
-    mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, color);
+    double s = ((double)a + 0.5) / (double)(samples - 1);  // the capsule's abscissa (fraction of the length)
+    mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, s >= band_from && s <= band_to ? marked : color);
     mjtNum from[3], to[3];
     vsc_rod_sample_point(it->rod, a, from);
     vsc_rod_sample_point(it->rod, a + 1, to);

@@ -129,6 +129,9 @@
     "`lumped` (each row of the band matrix summed on its diagonal: same total mass, gravity and rest " \
     "shapes; highest frequencies 1.4x lower, so 3 leapfrog substeps per 2 ms where `consistent` needs 5 " \
     "on the fall; every validation case within its tolerance) or `consistent` (the paper's M_ij = m " \
-    "integral b_i b_j ds, band 7)")
+    "integral b_i b_j ds, band 7)") \
+  X(marked_band, KEY_VECTOR, FIELD(marked_band), 0, 2, "m", DERIVED("none"), \
+    "a stretch of the axis drawn in its own colour (blue) by MuJoCo's renderer: from, to, along the rest " \
+    "axis (0 <= from < to <= `length`); the band a task marks, e.g. to be grasped")
 
 #endif  // VISCERA_PLUGIN_KEYS_H

@@ -42,6 +42,7 @@ DURATION = 6.0  # s: the shipped scene was settled with it (a rerun reproduces i
 HALF_WIDTH = (0.15, 0.125)  # the cavity's inner half sizes along x and y (m)
 LAYER_PITCH_RADII = 4.0     # rows and layers 4 radii apart: one tube diameter of clearance
 SETTLING_PHYSICS = {"integrator": "rk4", "mass_matrix": "consistent"}  # config keys, where the scene has none
+BANK = pathlib.Path("assets") / "scenes" / "abdomen_starts.npz"  # the tasks' settled starts
 
 
 def _serpentine(x_outer: float, x_inner: float, y_first: float, y_last: float, rows: int, radius: float,
@@ -70,14 +71,38 @@ def _first(path: np.ndarray, length: float) -> np.ndarray:
     return np.vstack([path[:k], end])
 
 
-def initial_path(length: float, radius: float) -> np.ndarray:
-    """The two-serpentine polyline (m, (k, 3)) of `length` m, both ends on the wall."""
+def initial_path(length: float, radius: float, layout: int = 0) -> np.ndarray:
+    """The two-serpentine polyline (m, (k, 3)) of `length` m, both ends on the wall. Layout 0 is
+    the shipped scene's; layout k > 0 draws its own (seeded by k): the rows' pitch (4 to 5.2
+    radii) and the halves' inner edges (up to 3 cm off the midline), as wide as the cavity holds, and
+    each interior vertex moved by up to 1 cm across the rows, so that each settles into its own
+    pile of loops."""
+    rng = np.random.default_rng(layout) if layout else None
+    pitch = LAYER_PITCH_RADII * (rng.uniform(1.0, 1.3) if rng else 1.0)
+    inner_shift = rng.uniform(0.0, 0.03, 2) if rng else np.zeros(2)
+    while True:
+        try:
+            return _two_serpentines(length, radius, pitch, inner_shift, rng)
+        except ValueError:  # too wide to hold the length: closer rows, then halves nearer the midline
+            if pitch <= LAYER_PITCH_RADII and inner_shift.max() < 1e-3:
+                raise
+            if pitch > LAYER_PITCH_RADII:
+                pitch = max(LAYER_PITCH_RADII, 0.97 * pitch)
+            else:
+                inner_shift = 0.5 * inner_shift
+
+
+def _two_serpentines(length: float, radius: float, pitch: float, inner_shift: np.ndarray,
+                     rng: np.random.Generator | None) -> np.ndarray:
     clearance = radius + 0.002  # from the walls
-    x_outer, x_inner = HALF_WIDTH[0] - clearance, 0.5 * LAYER_PITCH_RADII * radius
+    x_outer, x_inner = HALF_WIDTH[0] - clearance, 0.5 * pitch * radius
     y_far = HALF_WIDTH[1] - clearance
-    rows = int((2.0 * y_far) // (LAYER_PITCH_RADII * radius)) + 1
-    left = _serpentine(-x_outer, -x_inner, y_far, -y_far, rows, radius, layers=2)   # left cranial corner
-    right = _serpentine(x_outer, x_inner, -y_far, y_far, rows, radius, layers=2)    # right caudal corner
+    rows = int((2.0 * y_far) // (pitch * radius)) + 1
+    left = _serpentine(-x_outer, -x_inner - inner_shift[0], y_far, -y_far, rows, radius, layers=2)  # left cranial
+    right = _serpentine(x_outer, x_inner + inner_shift[1], -y_far, y_far, rows, radius, layers=2)   # right caudal
+    if rng is not None:  # the ends stay on their corners
+        for half in (left, right):
+            half[1:, 1] = np.clip(half[1:, 1] + rng.uniform(-0.01, 0.01, len(half) - 1), -y_far, y_far)
     crossing = 0.0
     for _ in range(100):  # the crossing's length depends on where the halves end
         half = 0.5 * (length - crossing)
@@ -88,16 +113,19 @@ def initial_path(length: float, radius: float) -> np.ndarray:
         if abs(total - length) < 1e-10:
             break
         crossing = total - 2.0 * half
+    if total < length:  # not converged to the last 1e-10: raise the crossing by what is missing
+        path[len(a):len(a) + 2, 2] += 0.5 * (length - total) + 1e-9
     return path
 
 
-def settle(scene: pathlib.Path, duration: float, quiet: bool = False) -> np.ndarray:
-    """Drop the initial path into the scene's cavity; return the settled control points (m, (n, 3))."""
+def settle(scene: pathlib.Path, duration: float, quiet: bool = False, layout: int = 0) -> np.ndarray:
+    """Drop the initial path (`layout`, see initial_path) into the scene's cavity; return the
+    settled control points (m, (n, 3))."""
     text = scene.read_text()
     probe = mujoco.MjModel.from_xml_string(_with_shape(text, "line", None))
     gut = viscera.intestine(probe)
     try:
-        path = initial_path(gut.rest_length, gut.radius)
+        path = initial_path(gut.rest_length, gut.radius, layout)
     except ValueError as error:  # an intestine too long for this cavity: the user's scene, found before stepping
         raise cli.UserError(f"{scene}: {error}") from error
     model = mujoco.MjModel.from_xml_string(_with_settling_physics(_with_shape(text, "polyline", path)))
@@ -142,12 +170,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Settle the intestine into the abdominal cavity and write the scene with its rest shape "
                     "to --out (required: nothing is written without it).",
         epilog=f"To update the shipped scene, name it: --out {SCENE}")
-    parser.add_argument("--out", type=cli.output_file(".xml"), required=True,
-                        help="where to write the scene with the settled shape (may be --scene itself)")
+    parser.add_argument("--out", type=cli.output_file(".xml", ".npz"), required=True,
+                        help="where to write the scene with the settled shape (may be --scene itself), or the "
+                             "bank (.npz) with --bank")
     parser.add_argument("--scene", type=pathlib.Path, default=SCENE,
                         help=f"scene to settle (default: {SCENE}, from the repository root)")
     parser.add_argument("--duration", type=cli.duration, default=DURATION,
                         help=f"settling time (simulated s, default {DURATION:g}: the shipped scene's)")
+    parser.add_argument("--bank", type=cli.positive_int, metavar="K",
+                        help="instead of a scene, settle layouts 1 to K and write their control points to --out "
+                             f"(.npz, key 'control_points' (K, n, 3) m): the tasks' bank of starts ({BANK})")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     return parser
@@ -162,7 +194,17 @@ def main(argv: list[str] | None = None) -> int:
             _with_shape(text, "line", None)
         except ValueError as error:
             raise cli.UserError(f"{args.scene}: {error}") from error
+        if args.bank and not str(args.out).endswith(".npz"):
+            raise cli.UserError(f"--out {args.out}: --bank writes a .npz")
+        if not args.bank and str(args.out).endswith(".npz"):
+            raise cli.UserError(f"--out {args.out}: a scene is written as .xml (a .npz needs --bank)")
         try:
+            if args.bank:
+                starts = np.stack([settle(args.scene, args.duration, True, layout)
+                                   for layout in tqdm(range(1, args.bank + 1), desc="layouts", disable=args.quiet)])
+                np.savez_compressed(args.out, control_points=np.round(starts, 6))
+                print(f"wrote {len(starts)} settled starts of {starts.shape[1]} control points into {args.out}")
+                return 0
             settled = settle(args.scene, args.duration, args.quiet)
         except RuntimeError as error:  # not at rest: settle's verdict on the user's --duration
             raise cli.UserError(str(error)) from error

@@ -2,6 +2,7 @@
 
     env = viscera.tasks.load("clear_area", seed=0)   # a dm_env.Environment
     viscera.tasks.ALL                                 # the task names
+    policy = viscera.tasks.scripted_policy(env)       # its scripted closed-loop policy
     viscera.tasks.reseed(env, 1)                      # as if loaded with seed 1 (for reused envs)
 """
 
@@ -22,6 +23,14 @@ def load(name: str, seed: int | None = None, **kwargs):
         raise KeyError(f"unknown task {name!r}; known: {ALL}")
     module = importlib.import_module(f"viscera.tasks.{TASKS[name][0]}")
     return module.load(seed=seed, **kwargs)
+
+
+def scripted_policy(env):
+    """The task's scripted closed-loop policy for `env` (a callable from a dm_env TimeStep to an
+    action), working from the observations only."""
+    name = type(env.task).__module__.rsplit(".", 1)[-1]
+    module = importlib.import_module(f"viscera.tasks.{name}")
+    return module.scripted_policy(env)
 
 
 def reseed(env, seed: int | None) -> None:

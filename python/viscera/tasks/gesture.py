@@ -26,6 +26,7 @@ import dataclasses
 import numpy as np
 
 from viscera import cli
+from viscera.tasks.base import GRID
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
@@ -47,13 +48,18 @@ class ClearingGesture:
 
     cycle_duration = 3.9  # s, one pick and lay
 
-    def __init__(self, env, withdraw_at: float = 18.0, carry_beyond: float = 0.06, carry_height: float = 0.09,
-                 good_enough: float = 0.95):
+    def __init__(self, env, withdraw_at: float = 24.0, carry_beyond: float = 0.06, carry_height: float = 0.09,
+                 good_enough: float = 0.85, resume_below: float = 0.8, press: bool = True, press_beyond: float = 0.02,
+                 press_height: float = 0.025):
         physics = env.physics
         model = physics.model
         self.control_timestep = env.control_timestep()
         self.withdraw_at = withdraw_at  # s: then the tools leave, whatever remains
-        self.good_enough = good_enough  # uncovered fraction at which the tools leave
+        self.good_enough = good_enough  # uncovered fraction at which the grasper leaves
+        self.resume_below = resume_below  # ... and below which, withdrawn, it comes back for more
+        # the retractor presses each laid loop down, press_beyond (m) past where the grasper let it
+        # go, its paddle press_height (m) above the wall, so that it does not slide back
+        self.press, self.press_beyond, self.press_height = press, press_beyond, press_height
         self.carry_beyond = carry_beyond  # m beyond the target's edge where a picked loop is laid
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back (carried 4, 6 and 8 cm past the edge, 9 cm cleared the target every
@@ -63,11 +69,8 @@ class ClearingGesture:
         # distance from the trocar to the working point at zero depth (m)
         self.tip_offset = {"grasper": -float(physics.named.model.site_pos["grasper_tip"][2]),
                            "retractor": -float(physics.named.model.geom_pos["retractor_paddle"][2])}
-        self.centre = physics.named.model.site_pos["target_area"][:2].copy()
-        self.half = physics.named.model.site_size["target_area"][:2].copy()
-        self.cells = physics.target_points()[:, :2]  # the reward's sampling points, coverage order
         self.radius = physics.intestine().radius
-        self.gravity = model.opt.gravity.copy()
+        self.target(np.concatenate([physics.target(), [0.0, 0.0, -9.81]]))
         self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in physics.named.data.ctrl.axes.row.names
                               else -1 for c in COORDINATES] for t in TOOLS}
         self.action_size = model.nu
@@ -84,6 +87,15 @@ class ClearingGesture:
         depth = float(np.clip(distance - self.tip_offset[tool], 0.0, 0.22))
         return {"pitch": float(pitch), "yaw": float(yaw), "depth": depth, "roll": roll, "jaw": jaw}
 
+    def target(self, observation: np.ndarray) -> None:
+        """The episode's target and gravity, from the observations `target` (centre m, half sizes
+        m) and `gravity` (m/s^2), concatenated."""
+        self.centre, self.half = observation[:2].copy(), observation[3:5].copy()
+        u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
+        x, y = np.meshgrid(self.centre[0] + u * self.half[0], self.centre[1] + u * self.half[1])
+        self.cells = np.stack([x.ravel(), y.ravel()], axis=1)  # the reward's sampling points, coverage order
+        self.gravity = observation[5:8].copy()
+
     def _reset(self) -> None:
         self.phases: list[Phase] = []
         self.phase_time = 0.0
@@ -91,6 +103,7 @@ class ClearingGesture:
         self.command = {t: {c: 0.0 for c in COORDINATES} for t in TOOLS}
         self.cycles = 0
         self.done = False
+        self.pressing: np.ndarray | None = None  # where the retractor presses (m, x y)
 
     def _move(self, tool: str, goal: dict, duration: float) -> ToolTrajectory:
         start = dict(self.command[tool])
@@ -123,8 +136,8 @@ class ClearingGesture:
         lifted = np.array([pick[0], pick[1], self.carry_height])
         carried = np.array([drop_xy[0], drop_xy[1], self.carry_height])
         lowered = np.array([drop_xy[0], drop_xy[1], 0.045])
-        g = "grasper"
-        hold_r = self._hold("retractor")
+        g, r = "grasper", "retractor"
+        hold_r = self._hold(r)
         self.phases += [
             Phase("approach", 0.9, self._move(g, self.coordinates(g, above, JAW_OPEN_DEG), 0.8), hold_r),
             Phase("descend", 0.5, self._move(g, self.coordinates(g, grip, JAW_OPEN_DEG), 0.4), hold_r),
@@ -132,8 +145,22 @@ class ClearingGesture:
             Phase("lift", 0.6, self._move(g, self.coordinates(g, lifted, JAW_CLOSED_DEG), 0.5), hold_r),
             Phase("carry", 0.9, self._move(g, self.coordinates(g, carried, JAW_CLOSED_DEG), 0.8), hold_r),
             Phase("lower", 0.4, self._move(g, self.coordinates(g, lowered, JAW_CLOSED_DEG), 0.3), hold_r),
-            Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r),
         ]
+        if self.press:  # the retractor leaves the last laid loop, comes over this one and presses it down
+            press_xy = drop_xy + side * self.press_beyond
+            hold_g = self._hold(g)
+            if self.pressing is not None:
+                self.phases.append(Phase("retractor up", 0.4, hold_g, self._move(
+                    r, self.coordinates(r, np.append(self.pressing, 0.07)), 0.35)))
+            self.phases += [
+                Phase("retractor over", 0.6, hold_g,
+                      self._move(r, self.coordinates(r, np.append(press_xy, 0.07)), 0.55)),
+                Phase("retractor press", 0.4, hold_g,
+                      self._move(r, self.coordinates(r, np.append(press_xy, self.press_height)), 0.35))]
+            self.pressing = press_xy
+            hold_r = self._hold(r)
+        self.phases.append(
+            Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
         self.cycles += 1
 
     def _exit_distance(self, point: np.ndarray, direction: np.ndarray) -> float:
@@ -143,10 +170,13 @@ class ClearingGesture:
         return max(0.0, min(bounds))
 
     def _plan_withdraw(self) -> None:
-        g = "grasper"
-        up = dict(self.command[g], depth=0.0, jaw=JAW_CLOSED_DEG)
-        self.phases.append(Phase("withdraw", 1.5, self._move(g, up, 1.2), self._move("retractor", dict(
-            self.command["retractor"], depth=0.0), 1.2)))
+        """The grasper withdraws to its trocar, jaws open; the retractor keeps pressing the laid
+        loops (it is clear of the target), or withdraws too when the time is up."""
+        g, r = "grasper", "retractor"
+        up = dict(self.command[g], depth=0.0, jaw=JAW_OPEN_DEG)  # open: a success leaves the jaws open
+        keep = self.press and self.pressing is not None and self.time + self.cycle_duration <= self.withdraw_at
+        retractor = self._hold(r) if keep else self._move(r, dict(self.command[r], depth=0.0), 1.2)
+        self.phases.append(Phase("withdraw", 1.5, self._move(g, up, 1.2), retractor))
         self.done = True
 
     def _over_covered_cells(self, points: np.ndarray, coverage: np.ndarray) -> np.ndarray:
@@ -160,15 +190,20 @@ class ClearingGesture:
     def __call__(self, time_step) -> np.ndarray:
         if time_step.first():
             self._reset()
+            self.target(np.concatenate([time_step.observation["target"], time_step.observation["gravity"]]))
         axis = np.asarray(time_step.observation["intestine_axis"]).reshape(-1, 3)
         while not self.phases or self.phase_time >= self.phases[0].duration:
             if self.phases:
                 self.phase_time -= self.phases.pop(0).duration
             if not self.phases:
-                if self.done:  # rest withdrawn
-                    self.phases.append(Phase("rest", np.inf, self._hold("grasper"), self._hold("retractor")))
-                else:
-                    self._plan(axis, time_step.observation["target_coverage"])
+                coverage = time_step.observation["target_coverage"]
+                if self.done and (1.0 - float(np.mean(np.asarray(coverage) > 0.5)) >= self.resume_below
+                                  or self.time + self.cycle_duration > self.withdraw_at):
+                    # rest withdrawn, looking again every half second
+                    self.phases.append(Phase("rest", 0.5, self._hold("grasper"), self._hold("retractor")))
+                else:  # loops came back over the target: another cycle
+                    self.done = False
+                    self._plan(axis, coverage)
         phase = self.phases[0]
         action = np.zeros(self.action_size)
         for tool, trajectory in (("grasper", phase.grasper), ("retractor", phase.retractor)):
@@ -185,7 +220,7 @@ class ClearingGesture:
         return self.phases[0].name if self.phases else "-"
 
 
-def run(seed: int = 0, duration: float = 20.0, quiet: bool = False, png_before: str | None = None,
+def run(seed: int = 0, duration: float = 30.0, quiet: bool = False, png_before: str | None = None,
         png_after: str | None = None) -> float:
     """Run the gesture on a clear_area episode; returns the final uncovered fraction."""
     from tqdm import tqdm
@@ -222,10 +257,9 @@ def _render(physics, path: str) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m viscera.tasks.gesture", description=__doc__.split("\n")[0])
     parser.add_argument("--seed", type=cli.natural_int, default=0,
-                        help="the task's seed (default 0; clear_area starts every episode from the same scene, "
-                        "so today the gesture is the same for every seed)")
-    parser.add_argument("--duration", type=cli.duration, default=20.0,
-                        help="episode length (simulated s, default 20)")
+                        help="the task's seed: the episode's bowel, tissue, tilt and target (default 0)")
+    parser.add_argument("--duration", type=cli.duration, default=30.0,
+                        help="episode length (simulated s, default 30)")
     parser.add_argument("--png-before", type=cli.output_file(".png"),
                         help="picture of the cavity at the start (top camera)")
     parser.add_argument("--png-after", type=cli.output_file(".png"), help="picture of the cavity at the end")

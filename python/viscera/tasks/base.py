@@ -1,0 +1,292 @@
+"""What every bowel task shares: the physics with its named accessors, randomised episodes, the
+common observations, and success that lasts.
+
+A task (dm_control's suite convention: a Physics, a Task, a `load()` front door) subclasses
+BowelTask and defines:
+- TOOLS, its tool set (scene.Tool: name, kind, trocar);
+- `condition(physics)`, the instantaneous goal; `success(physics)` is True once it has held for
+  the last HOLD_S seconds of simulated time, and the episode then ends (discount 0);
+- `task_observations(physics)` and `get_reward(physics)` (shaped, in [0, 1]);
+- optionally `draw(physics)`, drawing the task's own episode details (target, marks) after the
+  bowel has settled, and `failure(physics)`, which ends an episode early (discount 0).
+
+Each episode (initialize_episode, from the task's RandomState: same seed, same episode, bit for
+bit) draws a settled start, tissue and tilt (scene.draw_episode), rebuilds the physics with them
+and the task's tools (a 12 ms compile), lets the bowel settle under the drawn tissue and tilt for
+SETTLE_S with the tools withdrawn, then restarts the clock at 0.
+"""
+
+from __future__ import annotations
+
+import collections
+
+import mujoco
+import numpy as np
+from dm_control import mujoco as dm_mujoco
+from dm_control.rl import control
+from dm_control.suite import base
+
+import viscera
+from viscera.checks import checked_integer
+from viscera.tasks import scene
+
+AXIS_SAMPLES = 100      # intestine axis points observed (3 cm apart on 3 m)
+MAX_AXIS_SAMPLES = 100_000
+GRID = 10               # target sampling points per side
+SETTLE_S = 0.5          # s the bowel settles under the drawn tissue and tilt before an episode
+JAW_OPEN_RAD = 0.2      # a jaw counts as open above this opening (rad; closed at or below 0.1)
+CLEAR_MARGIN = 0.01     # m: a tool is clear of the target outside it grown by this, or above CLEAR_HEIGHT
+CLEAR_HEIGHT = 0.05     # m above the posterior wall
+
+
+class Physics(dm_mujoco.Physics):
+    """The abdomen with named accessors for the tasks."""
+
+    def intestine(self) -> viscera.Intestine:
+        model = self.model.ptr
+        cached = getattr(self, "_intestine", None)
+        if cached is None or cached.model is not model:  # reload_from_* replaces the model
+            cached = self._intestine = viscera.intestine(model)
+            self._coverage_key = None
+        return cached
+
+    def axis_points(self, count: int = AXIS_SAMPLES) -> np.ndarray:
+        return self.intestine().axis_points(self.data.ptr, count)
+
+    def axis_point_at(self, abscissa: float) -> np.ndarray:
+        """The axis point (m) at `abscissa` m along the rest axis."""
+        gut = self.intestine()
+        s = np.array([np.clip(abscissa / gut.rest_length, 0.0, 1.0)])
+        return viscera.spline_points(gut.positions(self.data.ptr), s)[0]
+
+    # -- the target: a patch of the posterior wall (site target_area)
+    def target(self) -> np.ndarray:
+        """Centre (m, 3) then half sizes along x and y (m) of the target rectangle."""
+        return np.concatenate([self.named.data.site_xpos["target_area"],
+                               self.named.model.site_size["target_area"][:2]])
+
+    def target_points(self) -> np.ndarray:
+        """The GRID x GRID sampling points of the target rectangle (m, world frame)."""
+        centre, half = self.named.data.site_xpos["target_area"], self.named.model.site_size["target_area"][:2]
+        u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
+        x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
+        return np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
+
+    def coverage(self, points: np.ndarray | None = None) -> np.ndarray:
+        """1 where the tube lies over a target point (within one radius in the wall's plane)."""
+        gut = self.intestine()
+        key = (self.data.time, gut.positions(self.data.ptr).tobytes())
+        if points is None and getattr(self, "_coverage_key", None) == key:  # reward, success, observation
+            return self._coverage.copy()
+        target = self.target_points()[:, :2] if points is None else points
+        axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)[:, :2]
+        low, high = target.min(axis=0) - gut.radius, target.max(axis=0) + gut.radius
+        near = axis[np.all((axis >= low) & (axis <= high), axis=1)]  # the rest cannot cover
+        covered = np.zeros(len(target))
+        if len(near):
+            squared = ((target[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
+            covered = (squared.min(axis=1) <= gut.radius ** 2).astype(float)
+        if points is None:
+            self._coverage_key, self._coverage = key, covered
+        return covered.copy()
+
+    def uncovered_fraction(self) -> float:
+        return float(1.0 - self.coverage().mean())
+
+    # -- the tools
+    def tools(self) -> tuple[str, ...]:
+        """The scene's tools, by name, in the order of their actuators."""
+        names = []
+        for i in range(self.model.nu):
+            tool = self.model.id2name(i, "actuator").rsplit("_", 1)[0]
+            if tool not in names:
+                names.append(tool)
+        return tuple(names)
+
+    def graspers(self) -> tuple[str, ...]:
+        return tuple(site[:-len("_tip")] for site in self.intestine().graspers)
+
+    def tool_forces(self) -> np.ndarray:
+        return np.concatenate([self.named.data.sensordata[f"{tool}_force"] for tool in self.tools()])
+
+    def holding(self) -> np.ndarray:
+        """1 where a grasper holds the intestine (one entry per grasper)."""
+        return np.array([float(g.holding) for g in self.intestine().grasps(self.data.ptr)])
+
+    def held_abscissae(self) -> np.ndarray:
+        """Per grasper, the held point's abscissa (m along the rest axis), or -1 when not holding."""
+        return np.array([g.abscissa if g.holding else -1.0 for g in self.intestine().grasps(self.data.ptr)])
+
+    def tool_joints(self) -> np.ndarray:
+        tools = set(self.tools())
+        names = [j for j in self.named.data.qpos.axes.row.names if j.rsplit("_", 1)[0] in tools]
+        return self.named.data.qpos[names].copy()
+
+    def working_point(self, tool: str) -> np.ndarray:
+        """Where a tool works (m): a grasper's tip site, a retractor's paddle centre."""
+        if f"{tool}_tip" in self.named.data.site_xpos.axes.row.names:
+            return self.named.data.site_xpos[f"{tool}_tip"].copy()
+        return self.named.data.geom_xpos[f"{tool}_paddle"].copy()
+
+    def jaws_open(self) -> bool:
+        """Every grasper's jaw open (above JAW_OPEN_RAD) and holding nothing."""
+        return all(self.named.data.qpos[f"{g}_jaw"][0] > JAW_OPEN_RAD for g in self.graspers()) and \
+            not self.holding().any()
+
+    def tools_clear_of_target(self) -> bool:
+        """No tool's working point over the target (grown by CLEAR_MARGIN) below CLEAR_HEIGHT."""
+        centre, half = self.target()[:3], self.target()[3:] + CLEAR_MARGIN
+        for tool in self.tools():
+            point = self.working_point(tool)
+            if np.all(np.abs(point[:2] - centre[:2]) <= half) and point[2] - centre[2] < CLEAR_HEIGHT:
+                return False
+        return True
+
+
+class BowelTask(base.Task):
+    """A task on the randomised abdomen; see the module doc."""
+
+    TOOLS: tuple[scene.Tool, ...] = ()
+    HOLD_S = 0.0          # s the condition must hold for success
+    TIME_LIMIT_S = 20.0   # s, the default episode length
+
+    def __init__(self, random=None, axis_samples: int = AXIS_SAMPLES, randomize: bool = True):
+        super().__init__(random=random)
+        self.axis_samples = axis_samples
+        self.randomize = randomize
+        self.episode: scene.Episode | None = None
+        self._held_since: float | None = None
+
+    # -- the scene
+    def scene_xml(self, episode: scene.Episode | None, target=None) -> str:
+        return scene.compose(self.TOOLS, episode, target, self.intestine_config())
+
+    def intestine_config(self) -> dict[str, str]:
+        """Extra intestine config keys of this task (e.g. a marked band)."""
+        return {}
+
+    def initialize_episode(self, physics: Physics) -> None:
+        self.episode = scene.draw_episode(self.random) if self.randomize else None
+        self._held_since = None
+        self._failed = False
+        self.prepare(physics)
+        super().initialize_episode(physics)
+
+    def prepare(self, physics: Physics) -> None:
+        """Rebuild the physics for this episode, settle it, then draw the task's own details; a
+        task whose details are in the model (a marked band's colour) is built once more with
+        them, its settled state kept."""
+        physics.reload_from_xml_string(self.scene_xml(self.episode))
+        if not self.randomize:
+            return
+        self.settle(physics)
+        self.draw(physics)
+        if self.intestine_config():
+            model, data = physics.model.ptr, physics.data.ptr
+            full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+            state = np.empty(mujoco.mj_stateSize(model, full))
+            mujoco.mj_getState(model, data, state, full)
+            physics.reload_from_xml_string(self.scene_xml(self.episode))
+            mujoco.mj_setState(physics.model.ptr, physics.data.ptr, state, full)
+            mujoco.mj_forward(physics.model.ptr, physics.data.ptr)
+
+    def settle(self, physics: Physics) -> None:
+        """SETTLE_S s with the tools withdrawn and their jaws open, then the clock back to 0."""
+        model, data = physics.model.ptr, physics.data.ptr
+        data.ctrl[:] = 0.0
+        for grasper in physics.graspers():  # jaws open: a withdrawn jaw must not take a loop as it settles
+            data.ctrl[model.actuator(f"{grasper}_jaw").id] = model.actuator(f"{grasper}_jaw").ctrlrange[1]
+        for _ in range(int(round(SETTLE_S / model.opt.timestep))):
+            mujoco.mj_step(model, data)
+        data.time = 0.0
+        data.qvel[:] = 0.0  # the tools' joints rest; the bowel keeps its own state (plugin_state)
+
+    def draw(self, physics: Physics) -> None:
+        """The task's own random details, on the settled bowel (default: none). Not called
+        when the episodes are not randomised."""
+
+    def move_target(self, physics: Physics) -> None:
+        """Place the target where the settled bowel covers it (scene.place_target); the site is
+        moved in place (a model constant, not state), so the bowel does not move."""
+        half = physics.named.model.site_size["target_area"][:2]
+        u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
+        offsets = np.stack(np.meshgrid(u * half[0], u * half[1]), axis=-1).reshape(-1, 2)
+
+        def coverage_at(x: float, y: float) -> float:
+            return float(physics.coverage(offsets + np.array([x, y])).mean())
+
+        gut = physics.intestine()
+        axis = gut.axis_points(physics.data.ptr, 4 * gut.sphere_count)[:, :2]
+
+        def loops_at(x: float, y: float) -> int:
+            over = np.all(np.abs(axis - (x, y)) <= half + gut.radius, axis=1)
+            return int(np.count_nonzero(np.diff(over.astype(int)) == 1) + over[0])
+
+        x, y = scene.place_target(self.random, coverage_at, loops_at)
+        physics.named.model.site_pos["target_area"][:2] = (x, y)
+        mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+        physics._coverage_key = None  # the same bowel over another target
+
+    # -- success that lasts
+    def condition(self, physics: Physics) -> bool:
+        raise NotImplementedError
+
+    def failure(self, physics: Physics) -> bool:
+        """An episode that can no longer succeed (default: never)."""
+        return False
+
+    def after_step(self, physics: Physics) -> None:
+        if self.condition(physics):
+            if self._held_since is None:
+                self._held_since = float(physics.data.time)
+        else:
+            self._held_since = None
+        self._failed = self._failed or self.failure(physics)
+
+    def success(self, physics: Physics) -> bool:
+        """The goal has held for the last HOLD_S s of simulated time."""
+        return self._held_since is not None and physics.data.time - self._held_since >= self.HOLD_S - 1e-9
+
+    def get_termination(self, physics: Physics):
+        return 0.0 if self.success(physics) or self._failed else None
+
+    # -- observations
+    def get_observation(self, physics: Physics) -> collections.OrderedDict:
+        observation = collections.OrderedDict()
+        observation["tool_joints"] = physics.tool_joints()
+        observation["tool_forces"] = physics.tool_forces()
+        observation["grasper_holding"] = physics.holding()
+        observation["intestine_axis"] = physics.axis_points(self.axis_samples).ravel()
+        observation["gravity"] = physics.model.opt.gravity.copy()  # m/s^2: the table's tilt
+        observation.update(self.task_observations(physics))
+        return observation
+
+    def task_observations(self, physics: Physics) -> dict:
+        return {}
+
+
+REACH_DEG = 55.0  # a tool reaches a point when its shaft, pointed at it, leans at most this much
+
+
+def within_reach(physics: Physics, tool: str, point) -> bool:
+    """Whether the shaft of `tool`, pointed from its trocar at `point` (m), leans at most
+    REACH_DEG from vertical about both of its pivot axes (the joints stop at 60)."""
+    d = np.asarray(point, dtype=float) - physics.named.model.body_pos[f"{tool}_trocar"]
+    u = d / np.linalg.norm(d)
+    pitch, yaw = np.degrees(np.arctan2(u[1], -u[2])), np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
+    return abs(pitch) <= REACH_DEG and abs(yaw) <= REACH_DEG
+
+
+def checked_axis_samples(axis_samples: int) -> int:
+    axis_samples = checked_integer("axis_samples", axis_samples, 2)
+    if axis_samples > MAX_AXIS_SAMPLES:
+        raise ValueError(f"axis_samples = {axis_samples}: must be at most {MAX_AXIS_SAMPLES}")
+    return axis_samples
+
+
+def make(task: BowelTask, time_limit: float | None, control_timestep: float) -> control.Environment:
+    """The environment of `task`: its physics built from the shipped scene with the task's tools
+    (every reset rebuilds it for the episode)."""
+    physics = Physics.from_xml_string(task.scene_xml(None))
+    return control.Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,
+                               control_timestep=control_timestep)

@@ -1,0 +1,266 @@
+"""Scripted closed-loop policies for the tasks (dm_control convention: `action = policy(time_step)`),
+built from the observations alone, plus the scene's fixed geometry (trocars, tool lengths).
+
+Each policy queues phases: smooth, velocity-limited tool moves (viscera.trajectory) of set
+durations; when the queue runs dry it plans again from the latest observations. `Tools` turns a
+point in the cavity into the tool coordinates (pitch, yaw, depth, roll, jaw) that put the tool's
+working point there, and a set of tool commands into the action vector.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from viscera.trajectory import COORDINATES, ToolTrajectory
+
+JAW_OPEN_DEG = 35.0
+JAW_CLOSED_DEG = 0.0
+LIMITS = {"pitch": 60.0, "yaw": 60.0, "depth": 0.15, "roll": 90.0, "jaw": 200.0}  # per second
+
+
+class Tools:
+    """The tools of an environment's scene: their trocars, working points and actuators."""
+
+    def __init__(self, env):
+        physics = env.physics
+        model = physics.model
+        self.names = physics.tools()
+        self.trocar = {t: physics.named.model.body_pos[f"{t}_trocar"].copy() for t in self.names}
+        # distance from the trocar to the working point at zero depth (m): a grasper's tip site,
+        # a retractor's paddle
+        self.tip_offset = {}
+        for t in self.names:
+            if f"{t}_tip" in physics.named.model.site_pos.axes.row.names:
+                self.tip_offset[t] = -float(physics.named.model.site_pos[f"{t}_tip"][2])
+            else:
+                self.tip_offset[t] = -float(physics.named.model.geom_pos[f"{t}_paddle"][2])
+        names = physics.named.data.ctrl.axes.row.names
+        self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in names else -1 for c in COORDINATES]
+                          for t in self.names}
+        self.action_size = model.nu
+
+    def coordinates(self, tool: str, point, jaw: float = 0.0, roll: float = 0.0) -> dict:
+        """Tool coordinates (deg, m) that put the tool's working point at `point` (m, world): the
+        shaft pivots at the trocar (pitch about x, then yaw about y)."""
+        d = np.asarray(point, dtype=float) - self.trocar[tool]
+        distance = float(np.linalg.norm(d))
+        u = d / distance
+        yaw = np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
+        pitch = np.degrees(np.arctan2(u[1], -u[2]))
+        depth = float(np.clip(distance - self.tip_offset[tool], 0.0, 0.22))
+        return {"pitch": float(pitch), "yaw": float(yaw), "depth": depth, "roll": roll, "jaw": jaw}
+
+    def action(self, values: dict[str, np.ndarray]) -> np.ndarray:
+        """The action vector from each tool's coordinates (deg, m; COORDINATES order)."""
+        action = np.zeros(self.action_size)
+        for tool, coordinates in values.items():
+            for actuator, value, name in zip(self.actuators[tool], coordinates, COORDINATES):
+                if actuator >= 0:
+                    action[actuator] = value if name == "depth" else np.radians(value)
+        return action
+
+
+@dataclasses.dataclass
+class Phase:
+    name: str
+    duration: float                           # s, at least
+    moves: dict[str, ToolTrajectory]          # per tool; tools left out hold
+
+
+class PhasedPolicy:
+    """Plays queued phases; `plan(observation)` queues more when they run out."""
+
+    def __init__(self, env):
+        self.tools = Tools(env)
+        self.control_timestep = env.control_timestep()
+        self.reset()
+
+    def reset(self) -> None:
+        self.phases: list[Phase] = []
+        self.phase_time = 0.0
+        self.time = 0.0
+        self.command = {t: {c: 0.0 for c in COORDINATES} for t in self.tools.names}
+
+    def move(self, tool: str, goal: dict, duration: float) -> ToolTrajectory:
+        """A move of `tool` from where it was last sent to `goal` (tool coordinates)."""
+        start = dict(self.command[tool])
+        self.command[tool] = dict(goal)
+        return ToolTrajectory([dict(start, time=0.0), dict(goal, time=duration)], LIMITS)
+
+    def to(self, tool: str, point, jaw: float, duration: float) -> ToolTrajectory:
+        """A move of `tool`'s working point to `point` (m) with the jaw at `jaw` (deg)."""
+        return self.move(tool, self.tools.coordinates(tool, point, jaw), duration)
+
+    def up_the_shaft(self, tool: str, point, height: float) -> dict:
+        """The tool's coordinates drawn back along its shaft from `point` (m) until the working
+        point is `height` m up: the shaft keeps its angles, which may be at their limits."""
+        d = np.asarray(point, dtype=float) - self.tools.trocar[tool]
+        rise = (height - float(point[2])) * np.linalg.norm(d) / max(1e-6, -d[2])
+        return dict(self.command[tool], depth=max(0.0, self.command[tool]["depth"] - rise))
+
+    def jaw(self, tool: str, jaw: float, duration: float) -> ToolTrajectory:
+        return self.move(tool, dict(self.command[tool], jaw=jaw), duration)
+
+    def withdraw(self, tool: str, duration: float = 1.2) -> ToolTrajectory:
+        return self.move(tool, dict(self.command[tool], depth=0.0), duration)
+
+    def plan(self, observation) -> None:
+        raise NotImplementedError
+
+    @property
+    def phase(self) -> str:
+        return self.phases[0].name if self.phases else "-"
+
+    def __call__(self, time_step) -> np.ndarray:
+        if time_step.first():
+            self.reset()
+        while not self.phases or self.phase_time >= self.phases[0].duration:
+            if self.phases:
+                self.phase_time -= self.phases.pop(0).duration
+            if not self.phases:
+                self.plan(time_step.observation)
+                if not self.phases:  # nothing to do: hold still, look again next step
+                    self.phases.append(Phase("rest", self.control_timestep, {}))
+        phase = self.phases[0]
+        values = {}
+        for tool in self.tools.names:
+            move = phase.moves.get(tool)
+            values[tool] = move(self.phase_time) if move is not None else np.array(
+                [self.command[tool][c] for c in COORDINATES])
+        self.phase_time += self.control_timestep
+        self.time += self.control_timestep
+        return self.tools.action(values)
+
+
+def axis_point(observation, abscissa: float, length: float) -> np.ndarray:
+    """The observed axis point nearest `abscissa` (m along the rest axis of `length` m)."""
+    axis = np.asarray(observation["intestine_axis"]).reshape(-1, 3)
+    return axis[int(round(np.clip(abscissa / length, 0.0, 1.0) * (len(axis) - 1)))]
+
+
+class GraspLiftPolicy(PhasedPolicy):
+    """grasp_lift: over the band's highest point, down, close, lift to 9 cm and hold; if the jaws
+    take anything but the band, or nothing, open, rise and try the next band point."""
+
+    lift_height = 0.09  # m
+
+    def reset(self) -> None:
+        super().reset()
+        self.attempt = 0
+
+    def plan(self, observation) -> None:
+        g = "grasper"
+        band = np.asarray(observation["band"]).reshape(-1, 3)
+        low, high = observation["band_abscissa"]
+        held = float(observation["held_abscissa"][0])
+        if held >= 0.0 and low - 0.01 <= held <= high + 0.01:  # holding the band: keep it up
+            return
+        if held >= 0.0 or self.attempt:  # the wrong loop, or a miss: let go and rise
+            top = dict(self.command[g], jaw=JAW_OPEN_DEG)
+            self.phases.append(Phase("let go", 0.3, {g: self.move(g, top, 0.25)}))
+            self.phases.append(Phase("rise", 0.4, {g: self.move(g, dict(top, depth=max(0.0, top["depth"] - 0.04)),
+                                                                 0.35)}))
+        order = np.argsort(-band[:, 2])  # the highest band points first
+        pick = band[order[self.attempt % len(band)]]
+        radius = 0.0125
+        self.phases += [
+            Phase("approach", 0.9, {g: self.to(g, pick + (0, 0, 0.04), JAW_OPEN_DEG, 0.8)}),
+            Phase("descend", 0.5, {g: self.to(g, pick - (0, 0, 0.3 * radius), JAW_OPEN_DEG, 0.4)}),
+            Phase("close", 0.3, {g: self.jaw(g, JAW_CLOSED_DEG, 0.25)}),
+            Phase("lift", 0.8, {g: self.move(g, self.up_the_shaft(g, pick, self.lift_height), 0.7)}),
+        ]
+        self.attempt += 1
+
+
+class RetractReachPolicy(PhasedPolicy):
+    """retract_reach: the retractor sweeps the loops off the target (down beside it, across it and
+    past its far edge, towards the side with most room) and holds them there; the grasper then
+    comes down on the target's centre and stays."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.stage = 0
+
+    def plan(self, observation) -> None:
+        r, g = "retractor", "grasper"
+        target = np.asarray(observation["target"])
+        centre, half = target[:3], target[3:5]
+        if self.stage == 0:
+            # sweep along the axis with the most room past the far edge, away from the retractor's trocar
+            trocar = self.tools.trocar[r][:2]
+            direction = np.sign(centre[:2] - trocar)
+            axis = 0 if half[0] >= half[1] else 1
+            step = np.zeros(2)
+            step[axis] = direction[axis] if direction[axis] != 0 else 1.0
+            start = centre[:2] - step * (half[axis] + 0.02)
+            end = centre[:2] + step * (half[axis] + 0.05)
+            low = 0.012
+            self.phases += [
+                Phase("retractor over", 0.9, {r: self.to(r, (*start, 0.08), 0.0, 0.8)}),
+                Phase("retractor down", 0.6, {r: self.to(r, (*start, low), 0.0, 0.5)}),
+                Phase("sweep", 1.6, {r: self.to(r, (*end, low), 0.0, 1.5)}),
+                Phase("hold", 0.3, {r: self.to(r, (*end, 0.02), 0.0, 0.25)}),
+            ]
+            self.stage = 1
+        elif self.stage == 1:
+            self.phases += [
+                Phase("grasper over", 0.9, {g: self.to(g, centre + (0, 0, 0.06), JAW_CLOSED_DEG, 0.8)}),
+                Phase("grasper down", 0.8, {g: self.to(g, centre + (0, 0, 0.002), JAW_CLOSED_DEG, 0.7)}),
+            ]
+            self.stage = 2
+
+
+class RunTheBowelPolicy(PhasedPolicy):
+    """run_the_bowel: hand over hand. The first grasper takes the start mark and lifts it; then,
+    in turn, the free grasper takes the bowel `stride` further along and lifts it, and only once
+    it holds does the other let go and rise (a miss is tried again); the run goes the way with
+    more bowel ahead."""
+
+    stride = 0.06        # m of bowel per hand-over
+    lift_height = 0.045  # m above the wall while holding
+
+    def reset(self) -> None:
+        super().reset()
+        self.next_abscissa = None
+        self.direction = 1.0
+        self.turn = 0
+        self.grabbing = False
+
+    def plan(self, observation) -> None:
+        graspers = [t for t in self.tools.names if t.startswith("grasper")]
+        held = np.asarray(observation["held_abscissa"])
+        length = float(observation["intestine_length"][0])
+        if self.next_abscissa is None:
+            mark = float(observation["start_mark"][3])
+            self.direction = 1.0 if mark < 0.5 * length else -1.0
+            self.next_abscissa = mark
+        index = self.turn % len(graspers)
+        hand, other = graspers[index], graspers[(index + 1) % len(graspers)]
+        if self.grabbing and held[index] >= 0.0 and abs(held[index] - self.next_abscissa) > 0.025:
+            held = held.copy()  # took another loop than the one aimed at: let go and try again below
+            held[index] = -1.0
+        if self.grabbing and held[index] >= 0.0:  # the hand holds: the other lets go and rises
+            self.grabbing = False
+            if held[(index + 1) % len(graspers)] >= 0.0:
+                top = dict(self.command[other], jaw=JAW_OPEN_DEG)
+                self.phases += [
+                    Phase(f"{other} let go", 0.3, {other: self.move(other, top, 0.25)}),
+                    Phase(f"{other} rise", 0.4, {other: self.move(other, dict(top, depth=max(0.0, top["depth"] - 0.05)),
+                                                                  0.35)})]
+            self.next_abscissa = float(held[index]) + self.direction * self.stride
+            self.turn += 1
+            return
+        if self.grabbing:  # missed: open and rise before trying again
+            top = dict(self.command[hand], jaw=JAW_OPEN_DEG)
+            self.phases.append(Phase(f"{hand} open", 0.3, {hand: self.move(hand, top, 0.25)}))
+        point = axis_point(observation, self.next_abscissa, length)
+        self.phases += [
+            Phase(f"{hand} approach", 0.8, {hand: self.to(hand, point + (0, 0, 0.04), JAW_OPEN_DEG, 0.7)}),
+            Phase(f"{hand} descend", 0.5, {hand: self.to(hand, point - (0, 0, 0.004), JAW_OPEN_DEG, 0.4)}),
+            Phase(f"{hand} close", 0.3, {hand: self.jaw(hand, JAW_CLOSED_DEG, 0.25)}),
+            Phase(f"{hand} lift", 0.5, {hand: self.to(hand, (point[0], point[1], self.lift_height), JAW_CLOSED_DEG,
+                                                      0.45)}),
+        ]
+        self.grabbing = True

@@ -1,0 +1,202 @@
+"""The tasks' scene: the abdomen with the tools a task picks, and the episode a seed draws.
+
+The shipped abdomen (assets/scenes/abdomen.xml) is the one source of the cavity and of each
+kind of tool: `compose` keeps its walls, cameras, lights and intestine, removes its tools, and
+adds the task's tool set, each a copy of the abdomen's tool of that kind (its trocar body,
+actuators and force sensor) renamed and placed at a trocar. Graspers are given to the intestine
+(`grasp_sites`, `grasp_joints`), so their jaws hold what they close on.
+
+`draw_episode` draws, from the task's RandomState, what differs between episodes (every range
+and its source in docs/tasks.md):
+- a settled start from the bank (assets/scenes/abdomen_starts.npz, made by
+  `python python/tools/settle.py --bank 24`: 24 layouts dropped into this cavity and settled);
+- tissue parameters around the model's defaults: mass per length, the springs' stiffness,
+  friction against the walls and tools and against itself, the mesentery's stiffness and depth;
+- the table's tilt, 0 to 15 degrees in any direction (gravity turned by it);
+the task then places its target on the settled bowel (`place_target`).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import pathlib
+import xml.etree.ElementTree as ElementTree
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).resolve()
+SOURCE_SCENES = HERE.parents[3] / "assets" / "scenes"   # the source tree
+PACKAGED_SCENES = HERE.parents[1] / "assets"            # the installed package's data
+
+
+def scene_file(name: str) -> pathlib.Path:
+    """A file of assets/scenes, from the source tree or the installed package's data."""
+    source = SOURCE_SCENES / name
+    return source if source.exists() else PACKAGED_SCENES / name
+
+
+ABDOMEN = "abdomen.xml"
+STARTS = "abdomen_starts.npz"
+TOOL_KINDS = ("grasper", "retractor")  # the abdomen's tools, by name, each the template of its kind
+TROCARS = {"right": (0.07, -0.06, 0.15), "left": (-0.07, -0.06, 0.15)}  # m, on the anterior wall
+G = 9.81  # m/s^2
+
+# Tissue ranges, drawn uniformly (docs/tasks.md gives their sources)
+MASS_PER_LENGTH = (0.30, 0.60)       # kg/m
+STIFFNESS_SCALE = (0.7, 1.5)         # x the default stretch and bend springs (one factor for both)
+FRICTION = (0.2, 0.4)                # Coulomb, against walls and tools
+SELF_FRICTION = (0.2, 0.4)           # Coulomb, bowel on bowel
+MESENTERY_STIFFNESS = (10.0, 40.0)   # N/m per tether
+MESENTERY_LENGTH = (0.15, 0.21)      # m, the mesentery's depth
+TILT_DEG = (0.0, 15.0)               # the table's tilt from level
+
+
+@dataclasses.dataclass(frozen=True)
+class Tool:
+    """One tool of a task's scene: `name` (its bodies, joints, actuators and sensor are named
+    after it), `kind` (grasper or retractor) and the trocar it enters by."""
+
+    name: str
+    kind: str
+    trocar: str
+
+
+@dataclasses.dataclass
+class Episode:
+    """What one seed draws (see draw_episode)."""
+
+    start: int                 # index in the bank of settled starts
+    control_points: np.ndarray  # m, (n, 3): the settled start
+    mass: float                # kg, the whole intestine
+    stiffness_scale: float     # x the default stretch and bend springs
+    friction: float
+    self_friction: float
+    mesentery_stiffness: float  # N/m
+    mesentery_length: float    # m
+    tilt_deg: float            # the table's tilt
+    tilt_azimuth_deg: float    # the direction it tilts towards (0: the patient's left, x)
+
+    @property
+    def gravity(self) -> np.ndarray:
+        tilt, azimuth = np.radians(self.tilt_deg), np.radians(self.tilt_azimuth_deg)
+        return G * np.array([-np.sin(tilt) * np.cos(azimuth), -np.sin(tilt) * np.sin(azimuth), -np.cos(tilt)])
+
+
+_STARTS_CACHE: dict[str, np.ndarray] = {}
+
+
+def settled_starts() -> np.ndarray:
+    """The bank of settled starts (m, (K, n, 3)), read once per process."""
+    path = scene_file(STARTS)
+    if str(path) not in _STARTS_CACHE:
+        with np.load(path) as bank:
+            _STARTS_CACHE[str(path)] = bank["control_points"]
+    return _STARTS_CACHE[str(path)]
+
+
+def draw_episode(random: np.random.RandomState, length: float = 3.0) -> Episode:
+    """Draw a start and the tissue and table for one episode from `random` (the task's)."""
+    starts = settled_starts()
+    index = int(random.randint(len(starts)))
+    return Episode(
+        start=index, control_points=starts[index], mass=float(random.uniform(*MASS_PER_LENGTH)) * length,
+        stiffness_scale=float(random.uniform(*STIFFNESS_SCALE)), friction=float(random.uniform(*FRICTION)),
+        self_friction=float(random.uniform(*SELF_FRICTION)),
+        mesentery_stiffness=float(random.uniform(*MESENTERY_STIFFNESS)),
+        mesentery_length=float(random.uniform(*MESENTERY_LENGTH)),
+        tilt_deg=float(random.uniform(*TILT_DEG)), tilt_azimuth_deg=float(random.uniform(0.0, 360.0)))
+
+
+def _rename(element: ElementTree.Element, old: str, new: str) -> None:
+    """Every name-like attribute of `element` and below that starts with `old`, renamed to `new`."""
+    for node in element.iter():
+        for attribute in ("name", "joint", "site", "objname", "body"):
+            value = node.get(attribute)
+            if value is not None and value.startswith(old):
+                node.set(attribute, new + value[len(old):])
+
+
+def _config(instance: ElementTree.Element, key: str, value: str | None) -> None:
+    """Set (or with None remove) the intestine's config `key`."""
+    for node in instance.findall("config"):
+        if node.get("key") == key:
+            if value is None:
+                instance.remove(node)
+            else:
+                node.set("value", value)
+            return
+    if value is not None:
+        ElementTree.SubElement(instance, "config", key=key, value=value)
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{float(x):.6g}" for x in np.ravel(values))
+
+
+def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tuple | None = None,
+            intestine_config: dict[str, str] | None = None) -> str:
+    """The abdomen's MJCF with `tools` in place of its own, the intestine and the gravity of
+    `episode` (None: the shipped scene's), the target site at `target` ((x, y) m on the
+    posterior wall; None: where the scene has it) and extra intestine config keys."""
+    root = ElementTree.fromstring(scene_file(ABDOMEN).read_text())
+    worldbody, actuators, sensors = root.find("worldbody"), root.find("actuator"), root.find("sensor")
+    templates = {}
+    for kind in TOOL_KINDS:
+        body = worldbody.find(f"body[@name='{kind}_trocar']")
+        templates[kind] = (body, [a for a in actuators if a.get("name", "").startswith(kind + "_")],
+                           [s for s in sensors if s.get("name") == f"{kind}_force"])
+        worldbody.remove(body)
+        for node in templates[kind][1]:
+            actuators.remove(node)
+        for node in templates[kind][2]:
+            sensors.remove(node)
+    for tool in tools:
+        body, tool_actuators, tool_sensors = templates[tool.kind]
+        for node, parent in [(body, worldbody)] + [(a, actuators) for a in tool_actuators] + [
+                (s, sensors) for s in tool_sensors]:
+            added = copy.deepcopy(node)
+            _rename(added, tool.kind, tool.name)
+            if node is body:
+                added.set("pos", _numbers(TROCARS[tool.trocar]))
+            parent.append(added)
+    instance = root.find("extension/plugin/instance")
+    graspers = [tool.name for tool in tools if tool.kind == "grasper"]
+    _config(instance, "grasp_sites", " ".join(f"{name}_tip" for name in graspers) or None)
+    _config(instance, "grasp_joints", " ".join(f"{name}_jaw" for name in graspers) or None)
+    if episode is not None:
+        root.find("option").set("gravity", _numbers(episode.gravity))
+        _config(instance, "points", _numbers(episode.control_points))
+        _config(instance, "mass", f"{episode.mass:.6g}")
+        length = float(next(c.get("value") for c in instance.findall("config") if c.get("key") == "length"))
+        # the defaults are one material at any length: 40 N and 4 N over the length (keys.h)
+        _config(instance, "stretch_stiffness", f"{40.0 / length * episode.stiffness_scale:.6g}")
+        _config(instance, "bend_stiffness", f"{4.0 / length * episode.stiffness_scale:.6g}")
+        _config(instance, "friction", f"{episode.friction:.6g}")
+        _config(instance, "self_friction", f"{episode.self_friction:.6g}")
+        _config(instance, "mesentery_stiffness", f"{episode.mesentery_stiffness:.6g}")
+        _config(instance, "mesentery_length", f"{episode.mesentery_length:.6g}")
+    for key, value in (intestine_config or {}).items():
+        _config(instance, key, value)
+    if target is not None:
+        site = worldbody.find("site[@name='target_area']")
+        z = float(site.get("pos").split()[2])
+        site.set("pos", _numbers((target[0], target[1], z)))
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+def place_target(random: np.random.RandomState, coverage_at, loops_at, region=((-0.08, 0.08), (-0.07, 0.07)),
+                 covered_at_least: float = 0.6, candidates: int = 16) -> tuple[float, float]:
+    """A target centre (x, y, m) in `region` (the middle of the posterior wall, clear of the
+    flanks): of `candidates` draws, those the bowel covers by at least `covered_at_least`
+    (coverage_at(x, y) gives the covered fraction), the one under the fewest loops (loops_at(x, y)
+    counts the stretches of the axis over it; the first of equals). A target under a whole pile
+    is as real, but no gesture clears it in an episode. The most covered draw if none is covered
+    enough."""
+    draws = [(float(random.uniform(*region[0])), float(random.uniform(*region[1]))) for _ in range(candidates)]
+    covered = [coverage_at(*centre) for centre in draws]
+    eligible = [i for i, c in enumerate(covered) if c >= covered_at_least]
+    if not eligible:
+        return draws[int(np.argmax(covered))]
+    loops = [loops_at(*draws[i]) for i in eligible]
+    return draws[eligible[int(np.argmin(loops))]]
