@@ -6,7 +6,8 @@
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
 is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json) or the plugin's table of config keys
+(python python/tools/bench_cavity.py --json), docs/tasks/rates.json (python
+python/tools/task_rates.py --out docs/tasks/rates.json) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
 
@@ -123,6 +124,24 @@ def cavity_speed() -> str:
             row += [f"{r['wall_s_per_sim_s']:.3f}", f"{r['p50_ms']:.3f}", f"{r['p99_ms']:.3f}", f"{r['p999_ms']:.3f}"]
         out.append(row)
     return _rows(header, out)
+
+
+def task_rates() -> str:
+    """From docs/tasks/rates.json (python python/tools/task_rates.py --out docs/tasks/rates.json)."""
+    data = _json("tasks/rates.json")
+    rows = []
+    for task, table in data["rates"].items():
+        cells = [f"`{task}`"]
+        for policy in ("scripted", "random", "nothing"):
+            row = table.get(policy)
+            cells.append(f"{row['success_rate']:.0%} of {row['episodes']}" if row else "-")
+        scripted = table.get("scripted")
+        cells.append(f"{scripted['median_wall_s_per_episode']:.1f} s ({scripted['median_simulated_s']:.1f} s simulated)"
+                      if scripted else "-")
+        rows.append(cells)
+    first, last = data["seeds"]
+    return _rows(["task", f"scripted policy (seeds {first} to {last})", "uniform random actions", "doing nothing",
+                  "scripted: median wall time per episode"], rows)
 
 
 def config_keys() -> str:

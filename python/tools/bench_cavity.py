@@ -47,7 +47,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from viscera import cli  # noqa: E402
-from viscera.tasks import clear_area  # noqa: E402
+from viscera.tasks import scene  # noqa: E402
 
 
 def record_gesture_controls(duration: float = 20.0) -> np.ndarray:
@@ -86,7 +86,7 @@ VARIANT_CONFIG = {"RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "
 
 def variant_xml(name: str) -> str:
     """The cavity scene, whole, with config keys added, or with the intestine removed."""
-    text = clear_area._scene_path().read_text()
+    text = scene.scene_file(scene.ABDOMEN).read_text()
     if name in VARIANT_CONFIG:
         added = "".join(f'<config key="{key}" value="{value}"/>\n        '
                         for key, value in VARIANT_CONFIG[name].items())

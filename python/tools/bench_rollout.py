@@ -30,7 +30,7 @@ from tqdm import tqdm  # noqa: E402
 
 from viscera import cli  # noqa: E402
 from viscera.scale.batch import BatchStepper  # noqa: E402
-from viscera.tasks import clear_area  # noqa: E402
+from viscera.tasks import scene  # noqa: E402
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -70,7 +70,7 @@ def python_loop(model, initial, controls) -> np.ndarray:
 
 
 def measure(batch: int = 8, steps: int = 250, runs: int = 5, thread_counts=(1, 2), progress: bool = True) -> dict:
-    model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
+    model = mujoco.MjModel.from_xml_path(str(scene.scene_file(scene.ABDOMEN)))
     initial, controls = batch_inputs(model, batch, steps)
     total_steps = batch * steps
     timings = {"python loop": []} | {f"rollout, {k} thread{'s' if k > 1 else ''}": [] for k in thread_counts}

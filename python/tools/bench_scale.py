@@ -41,7 +41,7 @@ from viscera import cli, scale
 from viscera.scale import vector
 from viscera.scale.batch import available_cores
 from bench_rollout import batch_inputs
-from viscera.tasks import clear_area
+from viscera.tasks import scene
 
 TASK = "clear_area"
 
@@ -140,7 +140,7 @@ def cpu_model() -> str:
 
 def smooth_actions(num_envs: int, steps: int) -> np.ndarray:
     """(steps, num_envs, nu) smooth random tool controls within the action bounds, as the collections' policy."""
-    model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
+    model = mujoco.MjModel.from_xml_path(str(scene.scene_file(scene.ABDOMEN)))
     return batch_inputs(model, num_envs, steps, seed=0)[1].transpose(1, 0, 2)
 
 

@@ -7,12 +7,12 @@ import pytest
 import viscera
 from viscera import batch
 from bench_rollout import batch_inputs  # bent intestines, smooth tool controls
-from viscera.tasks import clear_area
+from viscera.tasks import scene
 
 
 @pytest.fixture(scope="module")
 def abdomen():
-    return mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
+    return mujoco.MjModel.from_xml_path(str(scene.scene_file(scene.ABDOMEN)))
 
 
 def test_threads_equal_serial_stepping(abdomen):

@@ -19,9 +19,20 @@ def random_actions(env, seed, count):
 
 
 def test_registry():
-    assert viscera.tasks.ALL == tuple(viscera.task_registry.TASKS) and "clear_area" in viscera.tasks.ALL
+    """At least the four tasks the suite promises, each with a gymnasium id, in one registry."""
+    assert viscera.tasks.ALL == tuple(viscera.task_registry.TASKS)
+    assert {"clear_area", "grasp_lift", "run_the_bowel", "retract_reach"} <= set(viscera.tasks.ALL)
+    assert len({env_id for _, env_id in viscera.task_registry.TASKS.values()}) == len(viscera.tasks.ALL)
     with pytest.raises(KeyError, match="clear_area"):
         viscera.tasks.load("clear_the_area")
+
+
+def full_state(env) -> np.ndarray:
+    model, data = env.physics.model.ptr, env.physics.data.ptr
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    return state
 
 
 @pytest.mark.parametrize("name", viscera.tasks.ALL)
@@ -29,6 +40,7 @@ def test_specs_and_rewards_conform(name):
     env = viscera.tasks.load(name, seed=0, time_limit=1.0)
     step = env.reset()
     specs = env.observation_spec()
+    assert not env.task.success(env.physics)  # nothing is done at reset
     for action in random_actions(env, 1, 20):
         for key, spec in specs.items():
             spec.validate(step.observation[key])  # shape and dtype as declared
@@ -38,59 +50,113 @@ def test_specs_and_rewards_conform(name):
 
 
 @pytest.mark.parametrize("name", viscera.tasks.ALL)
-def test_deterministic_per_seed_and_reset(name):
+def test_same_seed_same_episode_bit_for_bit(name):
+    """Two loads with one seed: the same start (the whole physics state and the model's tissue,
+    tilt and target) and the same steps; a reseeded reset restores it."""
     runs = []
     for _ in range(2):
         env = viscera.tasks.load(name, seed=3, time_limit=1.0)
         first = env.reset().observation
+        start = full_state(env)
         for action in random_actions(env, 7, 25):
             step = env.step(action)
-        runs.append((first, step.observation))
-        again = env.reset().observation  # a second reset restores the same start
+        runs.append((first, start, full_state(env), env.physics.model.opt.gravity.copy()))
+        viscera.tasks.reseed(env, 3)
+        again = env.reset().observation
         for key in first:
             np.testing.assert_array_equal(again[key], first[key])
-    for key in runs[0][1]:
-        np.testing.assert_array_equal(runs[0][1][key], runs[1][1][key])
+    for key in runs[0][0]:
+        np.testing.assert_array_equal(runs[0][0][key], runs[1][0][key])
+    for a, b in zip(runs[0][1:], runs[1][1:]):
+        np.testing.assert_array_equal(a, b)
 
 
-def test_random_actions_do_not_break_it():
+@pytest.mark.parametrize("name", viscera.tasks.ALL)
+def test_seeds_draw_distinct_episodes(name):
+    """Different seeds: different bowels, tilts and (where the task has one) targets."""
+    starts = []
+    for seed in range(4):
+        env = viscera.tasks.load(name, seed=seed, time_limit=0.5)
+        observation = env.reset().observation
+        starts.append((observation["intestine_axis"], observation["gravity"], observation.get("target")))
+    for i in range(4):
+        for j in range(i):
+            assert not np.array_equal(starts[i][0], starts[j][0])
+            assert not np.array_equal(starts[i][1], starts[j][1])
+            if starts[i][2] is not None:
+                assert not np.array_equal(starts[i][2], starts[j][2])
+
+
+@pytest.mark.parametrize("name", viscera.tasks.ALL)
+def test_random_actions_do_not_break_it(name):
     """A random-action episode: no NaN, no divergence, the intestine stays in the cavity."""
-    env = viscera.tasks.load("clear_area", seed=1, time_limit=2.0, end_on_success=False)  # all 2 s
+    env = viscera.tasks.load(name, seed=1, time_limit=2.0)
     env.reset()
     for action in random_actions(env, 2, 100):
         step = env.step(action)
+        if step.last():
+            break
     gut = env.physics.intestine()
     axis = env.physics.axis_points(1000)
     assert gut.divergence_count(env.physics.data.ptr) == 0
     assert (np.abs(axis[:, 0]) < 0.15).all() and (np.abs(axis[:, 1]) < 0.125).all()
     assert axis[:, 2].min() > 0.0 and axis[:, 2].max() < 0.15
-    assert step.last()  # the time limit ends the episode
 
 
-def test_the_scripted_gesture_clears_the_target_and_again_after_a_reset():
-    """The clearing gesture as the task's policy: at least 0.8 of the target uncovered within
-    20 s where doing nothing leaves it covered; a second reset restores the start exactly."""
-    env = viscera.tasks.load("clear_area", seed=0, time_limit=20.0)
+def _rates(policy: str, seeds: range) -> dict:
+    import task_rates  # python/tools, on the path through conftest
+    return task_rates.rates(viscera.tasks.ALL, seeds, (policy,), workers=2, quiet=True)
+
+
+def test_random_actions_rarely_succeed():
+    """Uniform random actions succeed on fewer than 5 % of 20 seeds in every task (none of 20,
+    then; the committed 50-seed rates are in docs/tasks/rates.json)."""
+    for task, table in _rates("random", range(100, 120)).items():
+        assert table["random"]["success_rate"] < 0.05, (task, table)
+
+
+def test_doing_nothing_never_succeeds():
+    for task, table in _rates("nothing", range(100, 105)).items():
+        assert table["nothing"]["success_rate"] == 0.0, (task, table)
+
+
+@pytest.mark.parametrize("name, seed", [("grasp_lift", 0), ("run_the_bowel", 0)])
+def test_scripted_policies_succeed(name, seed):
+    """The scripted policies, closed loop from the observations, on a seed each."""
+    env = viscera.tasks.load(name, seed=seed)
+    policy = viscera.tasks.scripted_policy(env)
+    step = env.reset()
+    while not step.last():
+        step = env.step(policy(step))
+    assert env.task.success(env.physics) and step.discount == 0.0  # ended by its success
+
+
+def test_the_scripted_gesture_clears_the_shipped_scene_and_again_after_a_reset():
+    """The clearing gesture on the shipped scene (randomize=False: the paper's cavity as it
+    ships): a lasting success (80 % uncovered, jaws open, tools clear, for 2 s) that ends the
+    episode, the same again after a reset."""
+    env = viscera.tasks.load("clear_area", seed=0, randomize=False)
     policy = ClearingGesture(env)
     results = []
     for _ in range(2):
         step = env.reset()
         while not step.last():
             step = env.step(policy(step))
-        results.append((step.reward, env.physics.data.time, policy.cycles))
-    reward, seconds, cycles = results[0]
-    assert reward >= 0.8 and seconds <= 20.0 + 1e-9 and cycles >= 1
+        results.append((step.reward, env.physics.data.time, policy.cycles, env.task.success(env.physics)))
+    reward, seconds, cycles, success = results[0]
+    assert success and reward >= 0.8 and seconds < 30.0 and cycles >= 1
     assert results[1] == results[0]
 
 
 def test_gesture_command_prints_the_uncovered_fraction_last():
-    """`python -m viscera.tasks.gesture` plays the whole gesture (withdrawal included)."""
-    done = subprocess.run([sys.executable, "-m", "viscera.tasks.gesture", "--quiet"], capture_output=True, text=True,
-                          timeout=600)
+    """`python -m viscera.tasks.gesture` plays a whole episode and prints the final uncovered
+    fraction last, as the reward gives it."""
+    done = subprocess.run([sys.executable, "-m", "viscera.tasks.gesture", "--quiet", "--duration", "3"],
+                          capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     last = done.stdout.strip().splitlines()[-1]
     assert last.startswith("uncovered: ")
-    assert float(last.split(":")[1]) >= 0.8
+    assert 0.0 <= float(last.split(":")[1]) <= 1.0
 
 
 def test_the_environment_steps_under_mujoco_rollout():
@@ -116,7 +182,7 @@ def test_the_environment_steps_under_mujoco_rollout():
 
 
 def test_doing_nothing_leaves_the_area_covered():
-    env = viscera.tasks.load("clear_area", seed=0, time_limit=2.0)
+    env = viscera.tasks.load("clear_area", seed=0, time_limit=2.0, randomize=False)
     env.reset()
     zeros = np.zeros(env.action_spec().shape)
     while True:

@@ -16,7 +16,7 @@ from mujoco import rollout
 import viscera
 from viscera.scale.batch import serial_step  # mj_step from each FULLPHYSICS state with a zero warmstart
 from bench_rollout import batch_inputs  # bent intestines, smooth tool controls
-from viscera.tasks import clear_area
+from viscera.tasks import scene
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -29,7 +29,7 @@ def positions(model, state):
 
 def test_cavity_scene_on_two_threads_is_bit_identical_to_serial():
     """Six perturbed abdomens, tools moving, on two threads sharing one model."""
-    model = mujoco.MjModel.from_xml_path(str(clear_area._scene_path()))
+    model = mujoco.MjModel.from_xml_path(str(scene.scene_file(scene.ABDOMEN)))
     initial, controls = batch_inputs(model, 6, 60, seed=1)
     threaded, sensors = rollout.rollout(model, [mujoco.MjData(model) for _ in range(2)], initial, controls)
     expected = serial_step(model, initial, controls).state

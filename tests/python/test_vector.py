@@ -8,6 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import viscera
+import viscera.tasks
 from viscera.scale import gym_env as gymnasium_env, vector
 
 SHORT = {"time_limit": 0.1}  # 5 control steps: autoreset happens inside the tests
@@ -20,9 +21,25 @@ def test_passes_gymnasium_checks_and_is_registered():
         check_env(env, skip_render_check=True)
     made = gym.make("viscera/ClearArea-v0")
     assert made.observation_space == env.observation_space and made.action_space == env.action_space
-    low, high = env.action_space.low, env.action_space.high
+    # actions normalised to [-1, 1]: the ends are the actuators' control ranges
+    assert np.all(env.action_space.low == -1.0) and np.all(env.action_space.high == 1.0)
     spec = env.dm_env.action_spec()
-    assert np.array_equal(low, spec.minimum) and np.array_equal(high, spec.maximum)
+    np.testing.assert_array_equal(env.dm_action(env.action_space.low), spec.minimum)
+    np.testing.assert_array_equal(env.dm_action(env.action_space.high), spec.maximum)
+    np.testing.assert_allclose(env.gym_action(env.dm_action(np.full(9, 0.25))), 0.25)
+    coverage = env.observation_layout["target_coverage"][0]
+    assert np.all(env.observation_space.low[coverage] == 0.0) and np.all(env.observation_space.high[coverage] == 1.0)
+
+
+@pytest.mark.parametrize("task", viscera.tasks.ALL)
+def test_every_task_has_a_gymnasium_id_and_passes_the_checker_quietly(task):
+    """Every task: its id makes it, the checker passes without warnings about the actions."""
+    import viscera.gymnasium_ids
+    env = gym.make(viscera.gymnasium_ids.ENV_IDS[task])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped, skip_render_check=True)
+    assert not [w for w in caught if "action" in str(w.message).lower()], [str(w.message) for w in caught]
 
 
 def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
@@ -31,7 +48,6 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
     observation, info = env.reset(seed=3)
     time_step = reference.reset()
     assert info == {"step_type": 0}  # dm_env's FIRST discount is None: left out, so infos batch as floats
-    assert env.dm_env.task.random.get_state()[1].tolist() == np.random.RandomState(3).get_state()[1].tolist()
     rng = np.random.default_rng(0)
     for _ in range(4):
         parts = env.unflatten(observation)
@@ -39,7 +55,7 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
             assert np.array_equal(parts[key], value), key
         action = rng.uniform(env.action_space.low, env.action_space.high)
         observation, reward, terminated, truncated, info = env.step(action)
-        time_step = reference.step(action)
+        time_step = reference.step(env.dm_action(action))
         assert reward == time_step.reward and not (terminated or truncated)
         assert info == {"step_type": 1, "discount": 1.0}
     nested = gymnasium_env.TaskEnv("clear_area", seed=3, flatten=False)
@@ -140,7 +156,7 @@ def test_cleanrl_style_loop_records_episode_returns():
     """The loop of CleanRL's ppo_continuous_action: vector env, RecordEpisodeStatistics, next-step autoreset."""
     envs = gym.wrappers.vector.RecordEpisodeStatistics(
         vector.make("clear_area", num_envs=2, seed=1, backend="threads", **SHORT))
-    assert envs.single_observation_space.shape == (422,) and envs.single_action_space.shape == (9,)
+    assert envs.single_observation_space.shape == (430,) and envs.single_action_space.shape == (9,)
     observation, _ = envs.reset(seed=1)
     returns = np.zeros(2)
     episodes = []

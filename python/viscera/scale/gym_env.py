@@ -23,9 +23,13 @@ which CleanRL-style loops cannot batch into one tensor. Here:
   task's order (`observation_layout` gives each key's slice and shape); with
   flatten=False they are a gymnasium Dict of the same arrays. Nothing is cast,
   clipped or rescaled: values are bit-identical to the dm_env time step's.
-- Actions are the dm_env action (the tools' actuator controls, in the action
-  spec's bounds); out-of-range values are clamped by MuJoCo, as under dm_env. A
-  non-finite or wrong-sized action is refused by name before it reaches MuJoCo.
+- Actions are normalised to [-1, 1] per actuator, as RL libraries expect: -1 and 1
+  are the ends of the actuator's control range (the dm_env action spec's bounds),
+  mapped linearly; values outside are clipped to [-1, 1]. With
+  normalize_actions=False they are the dm_env action itself (clamped by MuJoCo).
+  A non-finite or wrong-sized action is refused by name before it reaches MuJoCo.
+- Observation bounds are given where they are known: 0 to 1 for grasper_holding
+  and target_coverage (and their slices of the flat vector), unbounded elsewhere.
 """
 
 from __future__ import annotations
@@ -41,7 +45,12 @@ from viscera.scale import observations
 from viscera.checks import finite_array
 
 
-def _box(spec) -> gymnasium.spaces.Box:
+KNOWN_BOUNDS = {"grasper_holding": (0.0, 1.0), "target_coverage": (0.0, 1.0)}  # observation key -> low, high
+
+
+def _box(spec, key: str | None = None) -> gymnasium.spaces.Box:
+    if key in KNOWN_BOUNDS:
+        return gymnasium.spaces.Box(*KNOWN_BOUNDS[key], spec.shape, np.float64)
     if isinstance(spec, specs.BoundedArray):
         low = np.broadcast_to(spec.minimum, spec.shape).astype(spec.dtype)
         high = np.broadcast_to(spec.maximum, spec.shape).astype(spec.dtype)
@@ -55,7 +64,8 @@ class TaskEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"]}
 
     def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool = True,
-                 render_mode: str | None = None, render_size: tuple[int, int] = (240, 320), **task_kwargs):
+                 render_mode: str | None = None, render_size: tuple[int, int] = (240, 320),
+                 normalize_actions: bool = True, **task_kwargs):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
         self.task_name = task
@@ -68,11 +78,18 @@ class TaskEnv(gymnasium.Env):
         self.observation_layout = observations.layout(observation_spec)
         if flatten:
             size = observations.size(self.observation_layout)
-            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
+            low, high = np.full(size, -np.inf), np.full(size, np.inf)
+            for key, (part, _) in self.observation_layout.items():
+                if key in KNOWN_BOUNDS:
+                    low[part], high[part] = KNOWN_BOUNDS[key]
+            self.observation_space = gymnasium.spaces.Box(low, high, (size,), np.float64)
         else:
             self.observation_space = gymnasium.spaces.Dict(
-                collections.OrderedDict((key, _box(spec)) for key, spec in observation_spec.items()))
-        self.action_space = _box(self.dm_env.action_spec())
+                collections.OrderedDict((key, _box(spec, key)) for key, spec in observation_spec.items()))
+        self.dm_action_space = _box(self.dm_env.action_spec())
+        self.normalize_actions = normalize_actions
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, self.dm_action_space.shape, np.float64) \
+            if normalize_actions else self.dm_action_space
         self._episode_over = True
 
     def observation(self, dm_observation) -> np.ndarray | dict:
@@ -103,7 +120,7 @@ class TaskEnv(gymnasium.Env):
         if self._episode_over:
             raise RuntimeError("step() after the episode ended (or before reset()): call reset() first")
         action = finite_array("action", action, self.action_space.shape)
-        time_step = self.dm_env.step(action)
+        time_step = self.dm_env.step(self.dm_action(action))
         terminated = truncated = False
         if time_step.last():
             self._episode_over = True
@@ -111,6 +128,20 @@ class TaskEnv(gymnasium.Env):
             truncated = not terminated
         return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated,
                 self._info(time_step))
+
+    def dm_action(self, action: np.ndarray) -> np.ndarray:
+        """The dm_env action (actuator controls) of a gymnasium action."""
+        if not self.normalize_actions:
+            return action
+        low, high = self.dm_action_space.low, self.dm_action_space.high
+        return low + 0.5 * (np.clip(action, -1.0, 1.0) + 1.0) * (high - low)
+
+    def gym_action(self, dm_action: np.ndarray) -> np.ndarray:
+        """The gymnasium action of a dm_env action (e.g. a scripted policy's)."""
+        if not self.normalize_actions:
+            return np.asarray(dm_action, dtype=np.float64)
+        low, high = self.dm_action_space.low, self.dm_action_space.high
+        return 2.0 * (np.asarray(dm_action, dtype=np.float64) - low) / (high - low) - 1.0
 
     def render(self):
         if self.render_mode == "rgb_array":

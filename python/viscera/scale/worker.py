@@ -110,13 +110,13 @@ def random_policy(env, seed: int):
     return RandomPolicy(env, seed)
 
 
-def gesture_policy(env, seed: int):
-    """The scripted clearing gesture (viscera.tasks.gesture); it does not use the seed."""
-    from viscera.tasks.gesture import ClearingGesture
-    return ClearingGesture(env)
+def scripted_policy(env, seed: int):
+    """The task's scripted policy (viscera.tasks.scripted_policy); it does not use the seed."""
+    return viscera.tasks.scripted_policy(env)
 
 
-POLICIES = {"random": random_policy, "gesture": gesture_policy}
+# "gesture", the clearing gesture's old name here, is clear_area's scripted policy
+POLICIES = {"random": random_policy, "scripted": scripted_policy, "gesture": scripted_policy}
 OBSERVATION_DTYPES = ("float64", "float32")
 
 

@@ -158,8 +158,10 @@ class BowelTask(base.Task):
         self._held_since: float | None = None
 
     # -- the scene
+    TARGET_HALF_M = (0.02, 0.015)  # the target patch's half sizes in randomised episodes (4 x 3 cm)
+
     def scene_xml(self, episode: scene.Episode | None, target=None) -> str:
-        return scene.compose(self.TOOLS, episode, target, self.intestine_config())
+        return scene.compose(self.TOOLS, episode, target, self.intestine_config(), self.TARGET_HALF_M)
 
     def intestine_config(self) -> dict[str, str]:
         """Extra intestine config keys of this task (e.g. a marked band)."""

@@ -13,7 +13,7 @@ and the retractor (left trocar).
 - Reward: the uncovered fraction of the target, in [0, 1].
 - Success (`success(physics)`): for the last 2 s of simulated time, at least 80 % of the target
   uncovered, the grasper's jaws open and holding nothing, and both tools clear of the target
-  (outside it grown by 1 cm, or 5 cm above the wall). The episode ends on success, or after 30 s.
+  (outside it grown by 1 cm, or 5 cm above the wall). The episode ends on success, or after 90 s.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ class ClearArea(base.BowelTask):
 
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("retractor", "retractor", "left"))
     HOLD_S = 2.0
-    TIME_LIMIT_S = 30.0
+    TIME_LIMIT_S = 90.0
 
     def __init__(self, random=None, end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES,
                  randomize: bool = True):
@@ -61,7 +61,7 @@ class ClearArea(base.BowelTask):
 def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
          end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES, randomize: bool = True
          ) -> control.Environment:
-    """The clear_area environment (time limit, default 30, and control period in s; with
+    """The clear_area environment (time limit, default 90, and control period in s; with
     end_on_success False a lasting success does not end the episode, e.g. to watch a gesture
     finish; axis_samples: the intestine axis points observed; randomize False: every episode the
     shipped scene's bowel, tissue, tilt and target)."""

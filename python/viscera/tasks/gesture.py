@@ -48,18 +48,21 @@ class ClearingGesture:
 
     cycle_duration = 3.9  # s, one pick and lay
 
-    def __init__(self, env, withdraw_at: float = 24.0, carry_beyond: float = 0.06, carry_height: float = 0.09,
-                 good_enough: float = 0.85, resume_below: float = 0.8, press: bool = True, press_beyond: float = 0.02,
-                 press_height: float = 0.025):
+    def __init__(self, env, withdraw_at: float | None = None, carry_beyond: float = 0.12, carry_height: float = 0.12,
+                 good_enough: float = 0.85, resume_below: float = 0.8, press: bool = False, press_beyond: float = 0.02,
+                 press_height: float = 0.025, sideways: bool = False):
         physics = env.physics
         model = physics.model
         self.control_timestep = env.control_timestep()
-        self.withdraw_at = withdraw_at  # s: then the tools leave, whatever remains
+        # s: then the tools leave, whatever remains (default: 6 s before the episode's time limit)
+        limit = float(getattr(env, "_step_limit", 1500)) * env.control_timestep()  # dm_control's, in steps
+        self.withdraw_at = withdraw_at if withdraw_at is not None else (limit - 6.0 if np.isfinite(limit) else 24.0)
         self.good_enough = good_enough  # uncovered fraction at which the grasper leaves
         self.resume_below = resume_below  # ... and below which, withdrawn, it comes back for more
         # the retractor presses each laid loop down, press_beyond (m) past where the grasper let it
         # go, its paddle press_height (m) above the wall, so that it does not slide back
         self.press, self.press_beyond, self.press_height = press, press_beyond, press_height
+        self.sideways = sideways  # carry each loop across the bowel's direction, not to the nearest edge
         self.carry_beyond = carry_beyond  # m beyond the target's edge where a picked loop is laid
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back (carried 4, 6 and 8 cm past the edge, 9 cm cleared the target every
@@ -123,12 +126,7 @@ class ClearingGesture:
             return
         index = np.flatnonzero(over)[np.argmax(axis[over, 2])]  # the top loop first
         pick = axis[index]
-        # out through the target's nearest edge (the shortest way out), never uphill
-        offset = pick[:2] - self.centre
-        margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
-        normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
-        uphill = normals @ np.asarray(self.gravity[:2]) < -1e-9
-        side = normals[np.argmin(np.where(uphill, np.inf, margins))]
+        side = self._exit_side(axis, index)
         drop_xy = pick[:2] + side * (self._exit_distance(pick[:2], side) + self.carry_beyond)
         drop_xy = np.clip(drop_xy, [-0.12, -0.10], [0.12, 0.10])
         above = np.array([pick[0], pick[1], pick[2] + 0.04])
@@ -162,6 +160,25 @@ class ClearingGesture:
         self.phases.append(
             Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
         self.cycles += 1
+
+    def _exit_side(self, axis: np.ndarray, index: int) -> np.ndarray:
+        """The direction (unit, xy) to carry the loop at axis point `index` off the target. Sideways
+        (the default): across the bowel there, the shorter way out of the two, never uphill; a rope
+        pulled along itself would only slide through. Else out through the nearest edge."""
+        pick = axis[index, :2]
+        if self.sideways:
+            tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
+            tangent = tangent / max(np.linalg.norm(tangent), 1e-9)
+            normals = np.array([[-tangent[1], tangent[0]], [tangent[1], -tangent[0]]])
+            margins = np.array([self._exit_distance(pick, n) for n in normals])
+        else:
+            offset = pick - self.centre
+            margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
+            normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+        uphill = normals @ np.asarray(self.gravity[:2]) < -0.05 * np.linalg.norm(self.gravity)
+        if uphill.all():
+            uphill[:] = False
+        return normals[np.argmin(np.where(uphill, np.inf, margins))]
 
     def _exit_distance(self, point: np.ndarray, direction: np.ndarray) -> float:
         """Distance (m) from `point` along `direction` (unit) to the target rectangle's edge."""
@@ -204,6 +221,9 @@ class ClearingGesture:
                 else:  # loops came back over the target: another cycle
                     self.done = False
                     self._plan(axis, coverage)
+            # a move the velocity limits stretched finishes before the next phase starts from its goal
+            first = self.phases[0]
+            first.duration = max(first.duration, first.grasper.duration, first.retractor.duration)
         phase = self.phases[0]
         action = np.zeros(self.action_size)
         for tool, trajectory in (("grasper", phase.grasper), ("retractor", phase.retractor)):
@@ -270,3 +290,33 @@ def main(argv: list[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+
+
+class RetractReach(ClearingGesture):
+    """Policy for retract_reach: the clearing gesture on the working spot only (the target's
+    sampling points within its SPOT_M of the centre): the grasper lays each loop over it aside
+    and the retractor presses the laid loop down; once the spot is clear the grasper comes down
+    on the target's centre (jaws closed) and stays, the retractor still pressing."""
+
+    def __init__(self, env, spot: float = 0.02, **kwargs):
+        self.spot = spot
+        super().__init__(env, good_enough=1.0, resume_below=0.0, press=True, **kwargs)  # reached: stays
+
+    def target(self, observation: np.ndarray) -> None:
+        super().target(observation)
+        self.in_spot = np.linalg.norm(self.cells - self.centre, axis=1) <= self.spot
+
+    def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
+        super()._plan(axis, np.where(self.in_spot, coverage, 0.0))
+
+    def _plan_withdraw(self) -> None:
+        g = "grasper"
+        centre = np.append(self.centre, 0.002)
+        self.phases += [
+            Phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),
+                                                  jaw=JAW_CLOSED_DEG), 0.45), self._hold("retractor")),
+            Phase("reach over", 0.8, self._move(g, self.coordinates(g, centre + (0, 0, 0.05), JAW_CLOSED_DEG), 0.7),
+                  self._hold("retractor")),
+            Phase("reach", 0.8, self._move(g, self.coordinates(g, centre, JAW_CLOSED_DEG), 0.7),
+                  self._hold("retractor"))]
+        self.done = True

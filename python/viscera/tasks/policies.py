@@ -123,6 +123,8 @@ class PhasedPolicy:
                 self.plan(time_step.observation)
                 if not self.phases:  # nothing to do: hold still, look again next step
                     self.phases.append(Phase("rest", self.control_timestep, {}))
+            # a move the velocity limits stretched finishes before the next phase starts from its goal
+            self.phases[0].duration = max([self.phases[0].duration] + [move.duration for move in self.phases[0].moves.values()])
         phase = self.phases[0]
         values = {}
         for tool in self.tools.names:
@@ -174,44 +176,6 @@ class GraspLiftPolicy(PhasedPolicy):
         self.attempt += 1
 
 
-class RetractReachPolicy(PhasedPolicy):
-    """retract_reach: the retractor sweeps the loops off the target (down beside it, across it and
-    past its far edge, towards the side with most room) and holds them there; the grasper then
-    comes down on the target's centre and stays."""
-
-    def reset(self) -> None:
-        super().reset()
-        self.stage = 0
-
-    def plan(self, observation) -> None:
-        r, g = "retractor", "grasper"
-        target = np.asarray(observation["target"])
-        centre, half = target[:3], target[3:5]
-        if self.stage == 0:
-            # sweep along the axis with the most room past the far edge, away from the retractor's trocar
-            trocar = self.tools.trocar[r][:2]
-            direction = np.sign(centre[:2] - trocar)
-            axis = 0 if half[0] >= half[1] else 1
-            step = np.zeros(2)
-            step[axis] = direction[axis] if direction[axis] != 0 else 1.0
-            start = centre[:2] - step * (half[axis] + 0.02)
-            end = centre[:2] + step * (half[axis] + 0.05)
-            low = 0.012
-            self.phases += [
-                Phase("retractor over", 0.9, {r: self.to(r, (*start, 0.08), 0.0, 0.8)}),
-                Phase("retractor down", 0.6, {r: self.to(r, (*start, low), 0.0, 0.5)}),
-                Phase("sweep", 1.6, {r: self.to(r, (*end, low), 0.0, 1.5)}),
-                Phase("hold", 0.3, {r: self.to(r, (*end, 0.02), 0.0, 0.25)}),
-            ]
-            self.stage = 1
-        elif self.stage == 1:
-            self.phases += [
-                Phase("grasper over", 0.9, {g: self.to(g, centre + (0, 0, 0.06), JAW_CLOSED_DEG, 0.8)}),
-                Phase("grasper down", 0.8, {g: self.to(g, centre + (0, 0, 0.002), JAW_CLOSED_DEG, 0.7)}),
-            ]
-            self.stage = 2
-
-
 class RunTheBowelPolicy(PhasedPolicy):
     """run_the_bowel: hand over hand. The first grasper takes the start mark and lifts it; then,
     in turn, the free grasper takes the bowel `stride` further along and lifts it, and only once
@@ -219,7 +183,9 @@ class RunTheBowelPolicy(PhasedPolicy):
     more bowel ahead."""
 
     stride = 0.06        # m of bowel per hand-over
-    lift_height = 0.045  # m above the wall while holding
+    lift = 0.015         # m a hold is raised: off the pile, not enough to tear it from under other loops
+    first_slack = 0.03   # m: the task counts a first hold this close to the mark ...
+    handover = 0.10      # ... and a later one this close, along the bowel, to the other jaw's hold
 
     def reset(self) -> None:
         super().reset()
@@ -227,18 +193,26 @@ class RunTheBowelPolicy(PhasedPolicy):
         self.direction = 1.0
         self.turn = 0
         self.grabbing = False
+        self.mark = None
+
+    def counts(self, held: np.ndarray, index: int) -> bool:
+        """Whether jaw `index`'s new hold counts as the task counts it, and moves the run on."""
+        if self.turn == 0:
+            return abs(held[index] - self.mark) <= self.first_slack
+        others = [s for j, s in enumerate(held) if j != index and s >= 0.0]
+        return any(abs(held[index] - s) <= self.handover and (held[index] - s) * self.direction > 0.0 for s in others)
 
     def plan(self, observation) -> None:
         graspers = [t for t in self.tools.names if t.startswith("grasper")]
         held = np.asarray(observation["held_abscissa"])
         length = float(observation["intestine_length"][0])
         if self.next_abscissa is None:
-            mark = float(observation["start_mark"][3])
-            self.direction = 1.0 if mark < 0.5 * length else -1.0
-            self.next_abscissa = mark
+            self.mark = float(observation["start_mark"][3])
+            self.direction = 1.0 if self.mark < 0.5 * length else -1.0
+            self.next_abscissa = self.mark
         index = self.turn % len(graspers)
         hand, other = graspers[index], graspers[(index + 1) % len(graspers)]
-        if self.grabbing and held[index] >= 0.0 and abs(held[index] - self.next_abscissa) > 0.025:
+        if self.grabbing and held[index] >= 0.0 and not self.counts(held, index):
             held = held.copy()  # took another loop than the one aimed at: let go and try again below
             held[index] = -1.0
         if self.grabbing and held[index] >= 0.0:  # the hand holds: the other lets go and rises
@@ -260,7 +234,6 @@ class RunTheBowelPolicy(PhasedPolicy):
             Phase(f"{hand} approach", 0.8, {hand: self.to(hand, point + (0, 0, 0.04), JAW_OPEN_DEG, 0.7)}),
             Phase(f"{hand} descend", 0.5, {hand: self.to(hand, point - (0, 0, 0.004), JAW_OPEN_DEG, 0.4)}),
             Phase(f"{hand} close", 0.3, {hand: self.jaw(hand, JAW_CLOSED_DEG, 0.25)}),
-            Phase(f"{hand} lift", 0.5, {hand: self.to(hand, (point[0], point[1], self.lift_height), JAW_CLOSED_DEG,
-                                                      0.45)}),
+            Phase(f"{hand} lift", 0.5, {hand: self.to(hand, point + (0, 0, self.lift), JAW_CLOSED_DEG, 0.45)}),
         ]
         self.grabbing = True

@@ -9,9 +9,11 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
 - Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, target
   (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), grasper_tip (m).
 - Reward: 0.5 x the uncovered fraction + 0.5 x exp(-tip distance to the target centre / 2 cm).
-- Success: for 0.5 s, the grasper's tip within 1 cm of the target's centre, the retractor
-  pressing on the bowel (its force sensor reads at least 0.05 N) and at least 60 % of the target
-  uncovered. The episode ends on success, or after 20 s.
+- Success: for 0.5 s, the grasper's tip within 1 cm of the target's centre, on an exposed working
+  spot: no tube over the target within 1.2 cm of its centre, and the grasper pushing on the bowel
+  with at most 0.5 N (it reaches the wall the retractor uncovered, it does not push its way
+  through the loops), while the retractor presses on the bowel (its force sensor reads at least
+  0.05 N). The episode ends on success, or after 60 s.
 """
 
 from __future__ import annotations
@@ -23,8 +25,9 @@ from viscera.tasks import base
 from viscera.tasks.scene import Tool
 
 REACH_M = 0.01        # tip to the target's centre
-PRESS_N = 0.05        # the retractor's force sensor
-UNCOVERED = 0.6
+PRESS_N = 0.05        # the retractor's force sensor: it presses on the bowel
+PUSH_N = 0.5          # the grasper's: it reaches the exposed wall, it does not push through loops
+SPOT_M = 0.012        # the working spot: no tube over the target within this of its centre
 Physics = base.Physics
 
 
@@ -33,7 +36,7 @@ class RetractReach(base.BowelTask):
 
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("retractor", "retractor", "left"))
     HOLD_S = 0.5
-    TIME_LIMIT_S = 20.0
+    TIME_LIMIT_S = 60.0
 
     def draw(self, physics: Physics) -> None:
         if self.randomize:
@@ -42,10 +45,17 @@ class RetractReach(base.BowelTask):
     def tip_distance(self, physics: Physics) -> float:
         return float(np.linalg.norm(physics.working_point("grasper") - physics.target()[:3]))
 
+    def spot_uncovered(self, physics: Physics) -> bool:
+        """No tube over the working spot: the target's sampling points within SPOT_M of its centre."""
+        points = physics.target_points()
+        spot = points[np.linalg.norm(points[:, :2] - physics.target()[:2], axis=1) <= SPOT_M][:, :2]
+        return not physics.coverage(spot).any()
+
     def condition(self, physics: Physics) -> bool:
+        forces = physics.named.data.sensordata
         return (self.tip_distance(physics) <= REACH_M and
-                np.linalg.norm(physics.named.data.sensordata["retractor_force"][:3]) >= PRESS_N and
-                physics.uncovered_fraction() >= UNCOVERED)
+                np.linalg.norm(forces["retractor_force"][:3]) >= PRESS_N and
+                np.linalg.norm(forces["grasper_force"][:3]) <= PUSH_N and self.spot_uncovered(physics))
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": physics.coverage(),
@@ -57,13 +67,13 @@ class RetractReach(base.BowelTask):
 
 def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
          axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True) -> control.Environment:
-    """The retract_reach environment (time limit, default 20, and control period in s)."""
+    """The retract_reach environment (time limit, default 60, and control period in s)."""
     task = RetractReach(random=np.random.RandomState(seed), axis_samples=base.checked_axis_samples(axis_samples),
                         randomize=randomize)
     return base.make(task, time_limit, control_timestep)
 
 
 def scripted_policy(env):
-    """Sweep with the retractor, then reach (viscera.tasks.policies.RetractReachPolicy)."""
-    from viscera.tasks.policies import RetractReachPolicy
-    return RetractReachPolicy(env)
+    """Clear the working spot, press the laid loops, then reach (viscera.tasks.gesture.RetractReach)."""
+    from viscera.tasks.gesture import RetractReach
+    return RetractReach(env, spot=SPOT_M)

@@ -1,0 +1,93 @@
+"""Success rates of the task suite: each task's scripted policy, uniform random actions and doing
+nothing, over seeds, with the wall time per episode; written to docs/tasks/rates.json.
+
+    python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
+
+The seeds start at 1000 by default: the policies were tuned on seeds below 100, so these are seeds
+they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
+control step (seeded by the episode's seed); doing nothing sends zeros (every tool at its rest).
+Episodes run in worker processes, one per core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures
+import json
+import os
+import pathlib
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+import viscera.tasks
+from viscera import cli
+
+POLICIES = ("scripted", "random", "nothing")
+OUT = pathlib.Path("docs") / "tasks" / "rates.json"
+
+
+def episode(task: str, seed: int, policy: str) -> dict:
+    """One whole episode of `task` from `seed` under `policy`: success, simulated and wall seconds."""
+    env = viscera.tasks.load(task, seed=seed)
+    spec = env.action_spec()
+    rng = np.random.RandomState(seed)
+    act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
+    start = time.perf_counter()
+    step = env.reset()
+    while not step.last():
+        if policy == "scripted":
+            action = act(step)
+        elif policy == "random":
+            action = rng.uniform(spec.minimum, spec.maximum)
+        else:
+            action = np.zeros(spec.shape)
+        step = env.step(action)
+    return {"task": task, "seed": seed, "policy": policy, "success": bool(env.task.success(env.physics)),
+            "simulated_s": float(env.physics.data.time), "wall_s": time.perf_counter() - start}
+
+
+def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False) -> dict:
+    """Per task and policy: the success rate over `seeds`, the seeds that succeeded, the median
+    wall time per episode."""
+    jobs = [(task, seed, policy) for task in tasks for policy in policies for seed in seeds]
+    with concurrent.futures.ProcessPoolExecutor(workers or os.cpu_count()) as pool:
+        rows = list(tqdm(pool.map(episode, *zip(*jobs)), total=len(jobs), desc="episodes", disable=quiet))
+    out: dict = {}
+    for task in tasks:
+        for policy in policies:
+            mine = [r for r in rows if r["task"] == task and r["policy"] == policy]
+            out.setdefault(task, {})[policy] = {
+                "episodes": len(mine), "success_rate": float(np.mean([r["success"] for r in mine])),
+                "succeeded_seeds": [r["seed"] for r in mine if r["success"]],
+                "median_wall_s_per_episode": float(np.median([r["wall_s"] for r in mine])),
+                "median_simulated_s": float(np.median([r["simulated_s"] for r in mine]))}
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python python/tools/task_rates.py", description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=cli.positive_int, default=50, help="episodes per task and policy (default 50)")
+    parser.add_argument("--first-seed", type=cli.natural_int, default=1000,
+                        help="the first seed (default 1000: seeds the policies were not tuned on)")
+    parser.add_argument("--tasks", nargs="+", choices=viscera.tasks.ALL, default=list(viscera.tasks.ALL),
+                        help="tasks to measure (default all)")
+    parser.add_argument("--policies", nargs="+", choices=POLICIES, default=list(POLICIES),
+                        help="policies to measure (default all)")
+    parser.add_argument("--out", type=cli.output_file(".json"), help=f"where to write the rates (e.g. {OUT})")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    result = {"seeds": [seeds.start, seeds.stop - 1], "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet)}
+    for task, table in result["rates"].items():
+        print(task + ": " + ", ".join(f"{policy} {row['success_rate']:.0%} ({row['median_wall_s_per_episode']:.1f} s "
+                                      f"wall per episode)" for policy, row in table.items()))
+    if args.out:
+        pathlib.Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
