@@ -136,12 +136,15 @@ def task_rates() -> str:
             row = table.get(policy)
             cells.append(f"{row['success_rate']:.0%} of {row['episodes']}" if row else "-")
         scripted = table.get("scripted")
-        cells.append(f"{scripted['median_wall_s_per_episode']:.1f} s ({scripted['median_simulated_s']:.1f} s simulated)"
-                      if scripted else "-")
+        steps_per_s = scripted["median_simulated_s"] / data["control_timestep_s"] / scripted["median_wall_s_per_episode"]
+        cells.append(f"{scripted['median_wall_s_per_episode']:.1f} s, {scripted['median_simulated_s']:.1f} s "
+                     f"simulated, {steps_per_s:.0f}")
         rows.append(cells)
-    first, last = data["seeds"]
-    return _rows(["task", f"scripted policy (seeds {first} to {last})", "uniform random actions", "doing nothing",
-                  "scripted: median wall time per episode"], rows)
+    seeds = data["seeds"]
+    return _rows(["task", f"scripted policy (seeds {seeds['scripted'][0]} to {seeds['scripted'][1]})",
+                  f"uniform random actions (seeds {seeds['random'][0]} to {seeds['random'][1]})",
+                  f"doing nothing (seeds {seeds['nothing'][0]} to {seeds['nothing'][1]})",
+                  "scripted: median wall and simulated time per episode, env steps/s"], rows)
 
 
 def config_keys() -> str:

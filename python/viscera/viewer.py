@@ -41,6 +41,25 @@ from viscera.checks import camera_id
 from viscera.meshcat_server import VIEWER_ROOT, Scene
 
 INTESTINE_RGB = (0.85, 0.45, 0.45)
+MARKED_RGB = (0.25, 0.5, 0.9)  # the config key marked_band's stretch, as MuJoCo's renderer draws it
+
+
+def skin_colours(gut: viscera.Intestine, vertex_count: int) -> np.ndarray | None:
+    """Per-vertex colours (V, 3) of `gut`'s skin at its config's resolution: MARKED_RGB on the rings
+    within its `marked_band`, INTESTINE_RGB elsewhere; None without a band. Rings are uniform in
+    the spline parameter ((n - 1) rings_per_segment + 1 of them), the two cap centres last."""
+    band = gut.config.get("marked_band")
+    if not band:
+        return None
+    rings_per_segment = int(gut.config.get("skin_rings_per_segment", viscera.attribute_docs()["skin_rings_per_segment"]["default"]))
+    rings = (gut.control_count - 1) * rings_per_segment + 1
+    ring_points = (vertex_count - 2) // rings
+    start, end = (float(x) / gut.rest_length for x in band.split())
+    fraction = np.arange(rings) / (rings - 1)
+    marked = np.repeat((fraction >= start) & (fraction <= end), ring_points)
+    colours = np.tile(np.array(INTESTINE_RGB), (vertex_count, 1))
+    colours[:len(marked)][marked] = MARKED_RGB
+    return colours
 
 
 def _colour(rgb) -> int:
@@ -462,8 +481,14 @@ class MeshcatViewer:
         self._placed = True
         for gut in self.intestines:
             vertices, _, triangles = viscera.skin(self.model, data, gut.instance)
-            self.vis["intestines"][gut.name].set_object(g.TriangularMeshGeometry(vertices, triangles),
-                                                       self._skin_material)
+            colours = skin_colours(gut, len(vertices))
+            if colours is None:
+                self.vis["intestines"][gut.name].set_object(g.TriangularMeshGeometry(vertices, triangles),
+                                                           self._skin_material)
+            else:  # a marked band: vertex colours
+                self.vis["intestines"][gut.name].set_object(
+                    g.TriangularMeshGeometry(vertices, triangles, color=colours),
+                    g.MeshLambertMaterial(color=0xFFFFFF, vertexColors=True))
 
     def set_intestines_visible(self, visible: bool) -> None:
         self.vis["intestines"].set_property("visible", bool(visible))

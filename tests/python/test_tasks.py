@@ -59,7 +59,7 @@ def test_same_seed_same_episode_bit_for_bit(name):
         first = env.reset().observation
         start = full_state(env)
         for action in random_actions(env, 7, 25):
-            step = env.step(action)
+            env.step(action)
         runs.append((first, start, full_state(env), env.physics.model.opt.gravity.copy()))
         viscera.tasks.reseed(env, 3)
         again = env.reset().observation

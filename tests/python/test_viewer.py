@@ -487,3 +487,19 @@ def test_hold_raises_when_the_server_has_died():
 if __name__ == "__main__":  # python tests/python/test_viewer.py: redraw the figures in docs/
     abdomen_views(ROOT / "docs" / "cavity_meshcat_live.png", ROOT / "docs" / "cavity_meshcat_recorded.png",
                   pathlib.Path(tempfile.mkdtemp()))
+
+
+def test_the_skin_colours_the_marked_band_as_the_renderer_does():
+    """A marked_band's rings are coloured MARKED_RGB in the meshcat skin, the rest INTESTINE_RGB."""
+    from viscera.viewer import INTESTINE_RGB, MARKED_RGB, skin_colours
+    xml = (f'<mujoco>{viscera.extension_xml("gut", length=1.0, control_points=11, marked_band=[0.2, 0.3])}'
+           '<worldbody/></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    gut = viscera.intestine(model)
+    vertices, _, _ = viscera.skin(model, data, gut.instance)
+    colours = skin_colours(gut, len(vertices))
+    ring_x = vertices[:-2, 0].reshape(-1, 16).mean(axis=1)  # the rings' positions along the line (m)
+    marked = np.all(colours[:-2].reshape(-1, 16, 3) == MARKED_RGB, axis=(1, 2))
+    assert marked.any() and np.all((ring_x[marked] >= 0.2 - 1e-9) & (ring_x[marked] <= 0.3 + 1e-9))
+    assert np.all(colours[:-2][~np.repeat(marked, 16)] == INTESTINE_RGB)

@@ -37,6 +37,8 @@ SETTLE_S = 0.5          # s the bowel settles under the drawn tissue and tilt be
 JAW_OPEN_RAD = 0.2      # a jaw counts as open above this opening (rad; closed at or below 0.1)
 CLEAR_MARGIN = 0.01     # m: a tool is clear of the target outside it grown by this, or above CLEAR_HEIGHT
 CLEAR_HEIGHT = 0.05     # m above the posterior wall
+STILL_RAD_S = 0.3       # rad/s: a tool's hinge at rest below this ...
+STILL_M_S = 0.03        # m/s: ... and its slide below this
 
 
 class Physics(dm_mujoco.Physics):
@@ -133,6 +135,19 @@ class Physics(dm_mujoco.Physics):
         return all(self.named.data.qpos[f"{g}_jaw"][0] > JAW_OPEN_RAD for g in self.graspers()) and \
             not self.holding().any()
 
+    def tools_still(self) -> bool:
+        """Every tool joint nearly at rest (hinges under STILL_RAD_S, slides under STILL_M_S): what
+        stays done does not depend on tools still moving."""
+        model = self.model.ptr
+        tools = set(self.tools())
+        for joint in range(model.njnt):
+            if self.model.id2name(joint, "joint").rsplit("_", 1)[0] not in tools:
+                continue
+            speed = abs(float(self.data.qvel[model.jnt_dofadr[joint]]))
+            if speed > (STILL_M_S if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE else STILL_RAD_S):
+                return False
+        return True
+
     def tools_clear_of_target(self) -> bool:
         """No tool's working point over the target (grown by CLEAR_MARGIN) below CLEAR_HEIGHT."""
         centre, half = self.target()[:3], self.target()[3:] + CLEAR_MARGIN
@@ -159,9 +174,11 @@ class BowelTask(base.Task):
 
     # -- the scene
     TARGET_HALF_M = (0.02, 0.015)  # the target patch's half sizes in randomised episodes (4 x 3 cm)
+    HAS_TARGET = True              # the task works on the target patch (else it is not drawn)
 
     def scene_xml(self, episode: scene.Episode | None, target=None) -> str:
-        return scene.compose(self.TOOLS, episode, target, self.intestine_config(), self.TARGET_HALF_M)
+        return scene.compose(self.TOOLS, episode, target, self.intestine_config(), self.TARGET_HALF_M,
+                             show_target=self.HAS_TARGET)
 
     def intestine_config(self) -> dict[str, str]:
         """Extra intestine config keys of this task (e.g. a marked band)."""

@@ -12,8 +12,9 @@ and the retractor (left trocar).
   (2)), target_coverage (10 x 10 grid: 1 where the tube lies over the point).
 - Reward: the uncovered fraction of the target, in [0, 1].
 - Success (`success(physics)`): for the last 2 s of simulated time, at least 80 % of the target
-  uncovered, the grasper's jaws open and holding nothing, and both tools clear of the target
-  (outside it grown by 1 cm, or 5 cm above the wall). The episode ends on success, or after 90 s.
+  uncovered, the grasper's jaws open and holding nothing, both tools clear of the target (outside
+  it grown by 1 cm, or 5 cm above the wall) and still (every tool joint under 0.3 rad/s or
+  0.03 m/s): the loops stay where they were put, not while tools keep stirring them. The episode ends on success, or after 90 s.
 """
 
 from __future__ import annotations
@@ -46,7 +47,8 @@ class ClearArea(base.BowelTask):
             self.move_target(physics)
 
     def condition(self, physics: Physics) -> bool:
-        return physics.uncovered_fraction() >= UNCOVERED and physics.jaws_open() and physics.tools_clear_of_target()
+        return (physics.uncovered_fraction() >= UNCOVERED and physics.jaws_open() and physics.tools_clear_of_target()
+                and physics.tools_still())
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": physics.coverage()}

@@ -38,6 +38,7 @@ class GraspLift(base.BowelTask):
 
     TOOLS = (Tool("grasper", "grasper", "right"),)
     HOLD_S = 1.0
+    HAS_TARGET = False
     TIME_LIMIT_S = 15.0
 
     def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):

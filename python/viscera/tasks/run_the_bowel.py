@@ -41,6 +41,7 @@ class RunTheBowel(base.BowelTask):
     """Advance 30 cm along the bowel, hand over hand, never letting go."""
 
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("grasper_left", "grasper", "left"))
+    HAS_TARGET = False
     TIME_LIMIT_S = 40.0
 
     def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):

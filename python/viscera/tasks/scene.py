@@ -135,11 +135,13 @@ def _numbers(values) -> str:
 
 
 def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tuple | None = None,
-            intestine_config: dict[str, str] | None = None, target_half: tuple | None = None) -> str:
+            intestine_config: dict[str, str] | None = None, target_half: tuple | None = None,
+            show_target: bool = True) -> str:
     """The abdomen's MJCF with `tools` in place of its own, the intestine and the gravity of
     `episode` (None: the shipped scene's), the target site at `target` ((x, y) m on the
     posterior wall; None: where the scene has it) of half sizes `target_half` ((x, y) m; None:
-    the scene's) and extra intestine config keys."""
+    the scene's) and extra intestine config keys; a task without a target draws none
+    (`show_target` False: the site stays, invisible)."""
     root = ElementTree.fromstring(scene_file(ABDOMEN).read_text())
     worldbody, actuators, sensors = root.find("worldbody"), root.find("actuator"), root.find("sensor")
     templates = {}
@@ -183,6 +185,8 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
     if target is not None:
         z = float(site.get("pos").split()[2])
         site.set("pos", _numbers((target[0], target[1], z)))
+    if not show_target:
+        site.set("rgba", "0 0 0 0")
     if target_half is not None and episode is not None:
         site.set("size", _numbers((target_half[0], target_half[1], float(site.get("size").split()[2]))))
     return ElementTree.tostring(root, encoding="unicode")
