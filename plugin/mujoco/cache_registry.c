@@ -110,3 +110,11 @@ int vsc_registry_visit(const void* cache, int instance, void (*visit)(void* cach
   pthread_mutex_unlock(&lock);
   return found;
 }
+
+int vsc_registry_with(const void* data, int instance, void (*visit)(void* cache, void* context), void* context) {
+  pthread_mutex_lock(&lock);
+  entry* e = lookup(data, instance);
+  if (e) visit(e->cache, context);
+  pthread_mutex_unlock(&lock);
+  return e != NULL;
+}

@@ -25,4 +25,8 @@ void* vsc_registry_remove(const void* data, int instance);
 /// it meanwhile) and return 1; else return 0. Scans the table: for resets, not steps.
 int vsc_registry_visit(const void* cache, int instance, void (*visit)(void* cache, void* context), void* context);
 
+/// If (data, instance) has a cache, call visit(cache, context) while holding the
+/// registry's lock and return 1; else return 0.
+int vsc_registry_with(const void* data, int instance, void (*visit)(void* cache, void* context), void* context);
+
 #endif  // VISCERA_PLUGIN_CACHE_REGISTRY_H

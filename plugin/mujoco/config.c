@@ -418,10 +418,11 @@ int vsc_plugin_key_field(int i, const char* field, char* out, int size) {
   }
   if (strcmp(field, "default") != 0) return -1;
   if (key->derived) return snprintf(out, (size_t)size, "%s", key->derived);
+  if (key->value) return snprintf(out, (size_t)size, key->kind == KEY_CHOICE ? "`%s`" : "%s", key->value);
+  if (key->offset < 0) return snprintf(out, (size_t)size, "-");
   vsc_plugin_config c;  // a core default: print the core's value
   core_defaults(&c);
   const void* value = (const char*)&c + key->offset;
-  if (key->value) return snprintf(out, (size_t)size, key->kind == KEY_CHOICE ? "`%s`" : "%s", key->value);
   switch (key->kind) {
     case KEY_COUNT: return snprintf(out, (size_t)size, "%d", *(const int*)value);
     case KEY_CHOICE: return snprintf(out, (size_t)size, "`%s`", names[*(const int*)value]);

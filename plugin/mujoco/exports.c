@@ -160,11 +160,7 @@ VSC_EXPORT int viscera_skin(const mjModel* m, const mjData* d, int instance, int
                             double* normals, int* triangles, int* vertex_count, int* triangle_count) {
   vsc_skin_def def;
   int n;
-  const vsc_plugin_config* cached = vsc_intestine_config(m, d, instance);
-  if (cached) {  // read when d's caches were built
-    def = cached->skin;
-    n = cached->rod.control_count;
-  } else {
+  if (!vsc_intestine_skin_def(m, d, instance, &def, &n)) {  // else as d's caches read it
     vsc_plugin_config config;
     if (read_intestine(m, instance, &config)) return -1;
     def = config.skin;

@@ -246,9 +246,26 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
   vsc_plugin_config_free(&config);
 }
 
-const vsc_plugin_config* vsc_intestine_config(const mjModel* m, const mjData* d, int instance) {
-  intestine* it = d ? (intestine*)vsc_registry_find(d, instance) : NULL;
-  return it && it->model == m ? &it->config : NULL;
+typedef struct skin_request {
+  const mjModel* m;
+  vsc_skin_def* skin;
+  int* control_count;
+  int found;
+} skin_request;
+
+static void copy_skin(void* cache, void* context) {
+  intestine* it = (intestine*)cache;
+  skin_request* request = (skin_request*)context;
+  if (it->model != request->m) return;
+  *request->skin = it->config.skin;
+  *request->control_count = it->config.rod.control_count;
+  request->found = 1;
+}
+
+int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count) {
+  skin_request request = {m, skin, control_count, 0};
+  if (d) vsc_registry_with(d, instance, copy_skin, &request);
+  return request.found;
 }
 
 // Tool force sensors of this instance: the wrench the intestine exerted on the

@@ -15,9 +15,10 @@
 /// Register viscera.intestine with MuJoCo.
 void vsc_plugin_register_intestine(void);
 
-/// The config of intestine `instance` as read once when data `d`'s caches were
-/// built for model `m` (owned by those caches: valid while d lives and is not
-/// stepped with another model), or NULL if d has none for m.
-const vsc_plugin_config* vsc_intestine_config(const mjModel* m, const mjData* d, int instance);
+/// The skin definition and control point count of intestine `instance` as
+/// data `d`'s caches read them for model `m`, copied under the registry's lock
+/// (so another thread freeing the caches cannot pull them away). Returns 1, or
+/// 0 if d has no caches for m (nothing written).
+int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count);
 
 #endif  // VISCERA_PLUGIN_INTESTINE_H

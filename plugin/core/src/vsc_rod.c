@@ -319,3 +319,7 @@ void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]) {
 }
 
 double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_damping_rate; }
+
+const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->sphere_xyz; }
+
+int vsc_rod_jacobian_half_width(const vsc_rod* rod) { return rod->jacobian_half_width; }

@@ -10,10 +10,11 @@ imports gymnasium's MuJoCo renderer (imageio, GLFW) on import, re-seeds a
 RandomState the dm_control task never reads, and offers only dict observations,
 which CleanRL-style loops cannot batch into one tensor. Here:
 
-- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s) does;
-  clear_area draws nothing from it: every episode starts from the same scene), then
-  returns the FIRST time step's observation; its info carries step_type only (dm_env's
-  FIRST discount is None, which gymnasium could not batch beside floats).
+- reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s)
+  does: the episode it draws, bowel, tissue, tilt and target, is then load(seed=s)'s
+  first), then returns the FIRST time step's observation; its info carries
+  step_type only (dm_env's FIRST discount is None, which gymnasium could not batch
+  beside floats). reset() without a seed draws the next episode.
 - step's info carries step_type and discount.
 - step returns the dm_env reward (float), and ends an episode exactly as dm_env
   does: a LAST step with discount 0 is `terminated` (the task ended it: the area is

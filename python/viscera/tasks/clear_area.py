@@ -5,7 +5,8 @@ come back to their previous position", to reach a target area. Tools: the graspe
 and the retractor (left trocar).
 
 - Episode: a settled start, tissue and tilt drawn per seed (viscera.tasks.base); the target (a
-  6 x 5 cm patch of the posterior wall) placed where the settled bowel covers at least 60 % of it.
+  4 x 3 cm patch of the posterior wall; the shipped scene's is 6 x 5) placed where the settled
+  bowel covers at least 60 % of it (of 16 draws, the one under the fewest loops).
 - Actions: the tools' position actuators, in their control ranges (rad, m).
 - Observations: tool_joints, tool_forces (N, the force the intestine exerts on each tool),
   grasper_holding, intestine_axis (axis_samples points, m), target (centre m (3), half sizes m

@@ -1,19 +1,22 @@
 """The clearing gesture: pick the loops lying over the target area and lay them aside.
 
-    python -m viscera.tasks.gesture [--seed 0] [--duration 20] [--png-before B.png --png-after A.png]
+    python -m viscera.tasks.gesture [--seed 0] [--duration 90] [--png-before B.png --png-after A.png]
 
 A closed-loop scripted policy for the clear_area task (dm_control convention:
-``action = policy(time_step)``), built from the observations alone: it reads
-the intestine's axis points and the tool joints, and plays smooth,
-velocity-limited tool trajectories (viscera.trajectory) between phases. Each
-cycle, while less than `good_enough` (95 %) of the target is uncovered: choose the highest axis point over the target (the top loop first, so it
-does not drag the loops below), bring the open grasper above it, descend, close
-the jaws (the plugin takes hold of the nearest axis point), lift, carry it
-beyond the target's edge, lower, release. When no loop lies over the target, or
-the time is nearly up, or the target is uncovered enough (chasing the last cells
-with another pick drags the laid loops back), the grasper withdraws to its trocar. The retractor
-meanwhile presses on the loops just outside the target's edge where the picked
-loops are laid, so that they do not slide back.
+``action = policy(time_step)``), built from the observations alone (the axis
+points, the target, its coverage, gravity) and the scene's fixed trocar
+geometry; it plays smooth, velocity-limited tool trajectories
+(viscera.trajectory), each phase lasting as long as its moves need. Each cycle,
+while less than `good_enough` (85 %) of the target is uncovered: choose the
+highest axis point over the target (the top loop first, so it does not drag the
+loops below), bring the open grasper above it, descend, close the jaws (the
+plugin takes hold of the nearest axis point), lift, carry it beyond the target's
+nearest edge that is not uphill, lower, release. When the target is uncovered
+enough, or nothing covers it, or the time is nearly up, the grasper withdraws to
+its trocar with its jaws open, and comes back if less than `resume_below` (80 %)
+is uncovered. With `press` the retractor presses each laid loop down (off by
+default: measured worse). `RetractReach` is the same gesture on retract_reach's
+working spot, then the reach.
 
 The last printed line is ``uncovered: F``, F the final uncovered fraction.
 """
@@ -166,9 +169,9 @@ class ClearingGesture:
         (the default): across the bowel there, the shorter way out of the two, never uphill; a rope
         pulled along itself would only slide through. Else out through the nearest edge."""
         pick = axis[index, :2]
-        if self.sideways:
-            tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
-            tangent = tangent / max(np.linalg.norm(tangent), 1e-9)
+        tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
+        if self.sideways and np.linalg.norm(tangent) > 1e-6:  # else (a vertical stretch) the nearest edge
+            tangent = tangent / np.linalg.norm(tangent)
             normals = np.array([[-tangent[1], tangent[0]], [tangent[1], -tangent[0]]])
             margins = np.array([self._exit_distance(pick, n) for n in normals])
         else:

@@ -4,7 +4,8 @@ Bimanual exposure, the purpose of clearing: one tool holds the bowel back while 
 on what it uncovered. Tools: the grasper (right trocar) and the retractor (left trocar).
 
 - Episode: a settled start, tissue and tilt drawn per seed (viscera.tasks.base); the target (a
-  6 x 5 cm patch of the posterior wall) placed where the settled bowel covers at least 60 % of it.
+  4 x 3 cm patch of the posterior wall; the shipped scene's is 6 x 5) placed where the settled
+  bowel covers at least 60 % of it (of 16 draws, the one under the fewest loops).
 - Actions: the tools' position actuators, in their control ranges (rad, m).
 - Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, target
   (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), grasper_tip (m).

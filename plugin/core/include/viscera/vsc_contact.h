@@ -3,7 +3,7 @@
 //
 // Broad phase (Verlet lists): grid passes find the candidate pairs within a
 // margin (segments closer than 2r + m, sphere-geom pairs within r + m, both by
-// exact distance, m = VSC_CONTACT_MARGIN r); every force evaluation then runs
+// exact distance, m = one radius); every force evaluation then runs
 // only the narrow phase over them. The self pairs are rebuilt once a sphere has
 // moved by m / 2 since they were built, the geom pairs once a sphere or a geom
 // has (then no contact can have been missed), apart: a moving tool does not

@@ -28,7 +28,7 @@
 #include "viscera/vsc_rod.h"
 
 /// Add `mass_weight` M (kg, band 7 of vsc_rod) to `band`, a wide band (vsc_band.h)
-/// of size 3n and half-width rod->jacobian_half_width.
+/// of size 3n and half-width vsc_rod_jacobian_half_width(rod).
 void vsc_rod_add_mass(const vsc_rod* rod, double mass_weight, double* band);
 
 /// Add stiffness_weight K + damping_weight D at positions q (m) to `band` (same

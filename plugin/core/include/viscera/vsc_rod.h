@@ -173,12 +173,19 @@ double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
 /// Length of the axis (m), as the sum of the sample spacings.
 double vsc_rod_length(vsc_rod* rod, const double* q);
 
-/// Sample positions into rod->sample_x, sample_y, sample_z.
+/// Place the sample points from control points q (read them with vsc_rod_sample_point).
 void vsc_rod_update_samples(vsc_rod* rod, const double* q);
 
-/// Collision sphere centres and velocities into rod->sphere_xyz / sphere_velocity
-/// (v may be NULL: velocities are then left untouched).
+/// Place the collision spheres and their velocities from q and v (v may be NULL:
+/// velocities are then left untouched); read them with vsc_rod_sphere_centres.
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
+
+/// The collision sphere centres (m, 3 per sphere) as last placed (owned by the rod).
+const double* vsc_rod_sphere_centres(const vsc_rod* rod);
+
+/// Half-bandwidth of the rod's force Jacobian over its 3n unknowns: the band
+/// size the vsc_jacobian.h functions write.
+int vsc_rod_jacobian_half_width(const vsc_rod* rod);
 
 /// The rod's control points n.
 int vsc_rod_control_count(const vsc_rod* rod);
