@@ -30,12 +30,10 @@ import numpy as np
 
 from viscera import cli
 from viscera.tasks.base import GRID
+from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Tools
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
-JAW_OPEN_DEG = 35.0
-JAW_CLOSED_DEG = 0.0
-LIMITS = {"pitch": 60.0, "yaw": 60.0, "depth": 0.15, "roll": 90.0, "jaw": 200.0}  # per second
 
 
 @dataclasses.dataclass
@@ -55,7 +53,6 @@ class ClearingGesture:
                  good_enough: float = 0.85, resume_below: float = 0.8, press: bool = False, press_beyond: float = 0.02,
                  press_height: float = 0.025, sideways: bool = False):
         physics = env.physics
-        model = physics.model
         self.control_timestep = env.control_timestep()
         # s: then the tools leave, whatever remains (default: 6 s before the episode's time limit)
         limit = float(getattr(env, "_step_limit", 1500)) * env.control_timestep()  # dm_control's, in steps
@@ -71,27 +68,11 @@ class ClearingGesture:
         # and they slide back (carried 4, 6 and 8 cm past the edge, 9 cm cleared the target every
         # time, 11 cm in one of three, 13 cm never)
         self.carry_height = carry_height
-        self.trocar = {t: physics.named.model.body_pos[f"{t}_trocar"].copy() for t in TOOLS}
-        # distance from the trocar to the working point at zero depth (m)
-        self.tip_offset = {"grasper": -float(physics.named.model.site_pos["grasper_tip"][2]),
-                           "retractor": -float(physics.named.model.geom_pos["retractor_paddle"][2])}
+        self.tools = Tools(env)  # trocars, working points, actuators
+        self.coordinates = self.tools.coordinates
         self.radius = physics.intestine().radius
         self.target(np.concatenate([physics.target(), [0.0, 0.0, -9.81]]))
-        self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in physics.named.data.ctrl.axes.row.names
-                              else -1 for c in COORDINATES] for t in TOOLS}
-        self.action_size = model.nu
         self._reset()
-
-    # -- tool kinematics: the shaft pivots at the trocar (pitch about x, then yaw about y)
-    def coordinates(self, tool: str, point: np.ndarray, jaw: float = 0.0, roll: float = 0.0) -> dict:
-        """Tool coordinates (deg, m) that put the tool's working point at `point` (m, world)."""
-        d = np.asarray(point, dtype=float) - self.trocar[tool]
-        distance = float(np.linalg.norm(d))
-        u = d / distance
-        yaw = np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
-        pitch = np.degrees(np.arctan2(u[1], -u[2]))
-        depth = float(np.clip(distance - self.tip_offset[tool], 0.0, 0.22))
-        return {"pitch": float(pitch), "yaw": float(yaw), "depth": depth, "roll": roll, "jaw": jaw}
 
     def target(self, observation: np.ndarray) -> None:
         """The episode's target and gravity, from the observations `target` (centre m, half sizes
@@ -228,12 +209,8 @@ class ClearingGesture:
             first = self.phases[0]
             first.duration = max(first.duration, first.grasper.duration, first.retractor.duration)
         phase = self.phases[0]
-        action = np.zeros(self.action_size)
-        for tool, trajectory in (("grasper", phase.grasper), ("retractor", phase.retractor)):
-            values = trajectory(self.phase_time)
-            for actuator, value, name in zip(self.actuators[tool], values, COORDINATES):
-                if actuator >= 0:
-                    action[actuator] = value if name == "depth" else np.radians(value)
+        action = self.tools.action({"grasper": phase.grasper(self.phase_time),
+                                    "retractor": phase.retractor(self.phase_time)})
         self.phase_time += self.control_timestep
         self.time += self.control_timestep
         return action
