@@ -6,7 +6,8 @@
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
 is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json), docs/tasks/rates.json (python
+(python python/tools/bench_cavity.py --json), docs/scale/tasks.json (python
+python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
@@ -145,6 +146,15 @@ def task_rates() -> str:
                   f"uniform random actions (seeds {seeds['random'][0]} to {seeds['random'][1]})",
                   f"doing nothing (seeds {seeds['nothing'][0]} to {seeds['nothing'][1]})",
                   "scripted: median wall and simulated time per episode, env steps/s"], rows)
+
+
+def task_throughput() -> str:
+    """From docs/scale/tasks.json (python python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json)."""
+    data = _json("scale/tasks.json")
+    policies = list(data["tasks"][0]["steps_per_s"])
+    rows = [[f"`{r['task']}`", f"{r['reset_s']:.2f}"] + [f"{r['steps_per_s'][p]:.0f}" for p in policies]
+            for r in data["tasks"]]
+    return _rows(["task", "reset (s)"] + [f"env steps/s, {p}" for p in policies], rows)
 
 
 def config_keys() -> str:

@@ -1,6 +1,7 @@
-"""Scaling of the clearing task: environment steps per second against workers, per backend.
+"""Throughput: the clearing task's env steps per second against workers, per backend; each task's.
 
     python python/tools/bench_scale.py [--runs 5] [--workers 1 2 4] [--envs-per-worker 2] [--steps 100]
+                                  [--parts collect vector tasks]
                                   [--json docs/scale/results.json] [--png docs/scale/scaling.png]
 
 Weak scaling, all in this process: each worker holds `envs-per-worker`
@@ -20,6 +21,11 @@ backend's workers, and the round trip of an empty Ray actor call, the physics' s
 part threads run in parallel) and a worker's memory: the figures
 the 1,000-core plan in docs/scaling.md starts from. Every collection is checked
 bit-identical to the serial one.
+
+Per task (`--parts tasks`, every task of viscera.tasks.ALL): one environment, serial, its reset
+(the physics rebuilt for the episode, then 0.5 s of settling) and its env steps per second under
+three policies: the task's scripted policy, uniform random actions and smooth random actions
+(the collections' policy); medians over `runs` seeds.
 """
 
 from __future__ import annotations
@@ -167,6 +173,45 @@ def measure_vector(num_envs, steps, runs, bar) -> list[dict]:
     return rows
 
 
+TASK_POLICIES = ("scripted", "uniform random", "smooth random")
+
+
+def measure_tasks(steps, runs, bar) -> list[dict]:
+    """Per task and policy: the reset's seconds and env steps per second after it (medians over
+    seeds 0 to runs - 1), one serial environment, the policy's own time included."""
+    import viscera.tasks
+    rows = []
+    for task in viscera.tasks.ALL:
+        resets, rates = [], {policy: [] for policy in TASK_POLICIES}
+        for seed in range(runs):
+            env = viscera.tasks.load(task, seed=seed)
+            spec = env.action_spec()
+            smooth = batch_inputs(env.physics.model.ptr, 1, steps, seed=seed)[1][0]  # this task's tools
+            for policy in TASK_POLICIES:
+                rng = np.random.RandomState(seed)
+                scripted = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
+                start = time.perf_counter()
+                time_step = env.reset()
+                resets.append(time.perf_counter() - start)
+                start, done = time.perf_counter(), 0
+                for i in range(steps):
+                    if time_step.last():
+                        break
+                    if scripted is not None:
+                        action = scripted(time_step)
+                    elif policy == "uniform random":
+                        action = rng.uniform(spec.minimum, spec.maximum)
+                    else:
+                        action = smooth[i]
+                    time_step = env.step(action)
+                    done += 1
+                rates[policy].append(done / (time.perf_counter() - start))
+            bar.update()
+        rows.append({"task": task, "reset_s": statistics.median(resets),
+                     "steps_per_s": {policy: statistics.median(r) for policy, r in rates.items()}})
+    return rows
+
+
 def ray_round_trip(runs: int = 200) -> dict:
     """Seconds of an empty actor call and of fetching one trajectory-sized array from an actor."""
     import ray
@@ -244,53 +289,73 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=cli.output_file(".json"), help="write the figures to this JSON file")
     parser.add_argument("--png", type=cli.output_file(".png"),
                         help="draw steps/s and efficiency against workers to this PNG")
+    parser.add_argument("--parts", nargs="+", default=["collect", "vector", "tasks"],
+                        choices=["collect", "vector", "tasks"],
+                        help="what to measure: the backends' scaling, the vector envs, each task (default: all)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     cores = available_cores()
     counts = sorted(set(args.workers or [1, 2, cores, 2 * cores]))
     ray = None
-    if "ray" in args.backends:
+    if "collect" in args.parts and "ray" in args.backends:
         try:
             import ray
         except ImportError:
             parser.error('the ray backend needs Ray: pip install "viscera[ray]" (or leave ray out of --backends)')
     vector_envs = 2 * cores
-    total = (1 + len(args.backends)) * len(counts) * args.runs + 4 * args.runs
-    with tqdm(total=total, desc="scaling benchmark", disable=args.quiet) as bar:
-        collect = measure_collect(counts, args.envs_per_worker, args.steps, args.runs, args.backends, bar)
-        vectors = measure_vector(vector_envs, args.steps, args.runs, bar)
+    import viscera.tasks
+    total = ((1 + len(args.backends)) * len(counts) * args.runs if "collect" in args.parts else 0) + \
+        (4 * args.runs if "vector" in args.parts else 0) + \
+        (len(viscera.tasks.ALL) * args.runs if "tasks" in args.parts else 0)
     result = {"cores": cores, "cpu": cpu_model(), "runs": args.runs, "steps": args.steps,
-              "envs_per_worker": args.envs_per_worker, "collect": collect, "vector": vectors,
-              "physics_fraction": statistics.median(physics_fraction() for _ in range(3)),
-              "memory": worker_memory()}
-    if ray is not None:
-        result["ray"] = ray_round_trip()
-        ray.shutdown()
-    identical = all(r["identical"] for r in collect["rows"])
-    print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores "
-          f"({result['cpu']}), "
-          f"medians of {args.runs}; every collection bit-identical to serial: {identical}")
-    print(f"{'backend':10s} {'workers':>7s} {'envs':>5s} {'env steps/s':>11s} {'speed-up':>9s} {'efficiency':>10s}")
-    for r in collect["rows"]:
-        print(f"{r['backend']:10s} {r['workers']:7d} {r['envs']:5d} {r['steps_per_s']:11.1f} "
-              f"{r['speedup']:9.2f} {r['efficiency']:10.2f}")
-    print(f"start-up with {max(counts)} workers (s): "
-          + ", ".join(f"{b} {s:.2f}" for b, s in collect["startup_s"].items()))
-    print(f"physics share of an env step: {result['physics_fraction']:.2f} (the rest is the task's Python); "
-          f"a worker process with one env: {result['memory']['process_with_one_env_MB']:.0f} MB, "
-          f"{result['memory']['per_further_env_MB']:.1f} MB per further env")
-    print(f"trajectory bytes per env step: {collect['bytes_per_step']:.0f} "
-          f"(observation of {collect['observation_size']} float64)")
-    print(f"gymnasium vector envs, {vector_envs} envs x {args.steps} steps:")
-    for r in vectors:
-        print(f"  {r['backend']:22s} {r['steps_per_s']:9.1f} env steps/s")
-    if "ray" in result:
-        print(f"Ray: empty actor call {result['ray']['empty_call_s'] * 1e3:.2f} ms, "
-              f"8 MB fetched from an actor at {result['ray']['fetch_MB_per_s']:.0f} MB/s")
+              "envs_per_worker": args.envs_per_worker}
+    with tqdm(total=total, desc="scaling benchmark", disable=args.quiet) as bar:
+        if "collect" in args.parts:
+            result["collect"] = measure_collect(counts, args.envs_per_worker, args.steps, args.runs, args.backends,
+                                                bar)
+        if "vector" in args.parts:
+            result["vector"] = measure_vector(vector_envs, args.steps, args.runs, bar)
+        if "tasks" in args.parts:
+            result["tasks"] = measure_tasks(args.steps, args.runs, bar)
+    identical = True
+    if "collect" in args.parts:
+        result["physics_fraction"] = statistics.median(physics_fraction() for _ in range(3))
+        result["memory"] = worker_memory()
+        if ray is not None:
+            result["ray"] = ray_round_trip()
+            ray.shutdown()
+        collect = result["collect"]
+        identical = all(r["identical"] for r in collect["rows"])
+        print(f"clear_area, {args.envs_per_worker} envs x {args.steps} control steps per worker, {cores} cores "
+              f"({result['cpu']}), medians of {args.runs}; every collection bit-identical to serial: {identical}")
+        print(f"{'backend':10s} {'workers':>7s} {'envs':>5s} {'env steps/s':>11s} {'speed-up':>9s} {'efficiency':>10s}")
+        for r in collect["rows"]:
+            print(f"{r['backend']:10s} {r['workers']:7d} {r['envs']:5d} {r['steps_per_s']:11.1f} "
+                  f"{r['speedup']:9.2f} {r['efficiency']:10.2f}")
+        print(f"start-up with {max(counts)} workers (s): "
+              + ", ".join(f"{b} {s:.2f}" for b, s in collect["startup_s"].items()))
+        print(f"physics share of an env step: {result['physics_fraction']:.2f} (the rest is the task's Python); "
+              f"a worker process with one env: {result['memory']['process_with_one_env_MB']:.0f} MB, "
+              f"{result['memory']['per_further_env_MB']:.1f} MB per further env")
+        print(f"trajectory bytes per env step: {collect['bytes_per_step']:.0f} "
+              f"(observation of {collect['observation_size']} float64)")
+        if "ray" in result:
+            print(f"Ray: empty actor call {result['ray']['empty_call_s'] * 1e3:.2f} ms, "
+                  f"8 MB fetched from an actor at {result['ray']['fetch_MB_per_s']:.0f} MB/s")
+    if "vector" in args.parts:
+        print(f"gymnasium vector envs, {vector_envs} envs x {args.steps} steps:")
+        for r in result["vector"]:
+            print(f"  {r['backend']:22s} {r['steps_per_s']:9.1f} env steps/s")
+    if "tasks" in args.parts:
+        print(f"per task, one env, serial, {args.steps} control steps after a reset, medians over {args.runs} seeds:")
+        print(f"{'task':14s} {'reset s':>8s} " + " ".join(f"{p + ' steps/s':>21s}" for p in TASK_POLICIES))
+        for r in result["tasks"]:
+            print(f"{r['task']:14s} {r['reset_s']:8.2f} "
+                  + " ".join(f"{r['steps_per_s'][p]:21.1f}" for p in TASK_POLICIES))
     if args.json:
         with open(args.json, "w") as out:
             json.dump(result, out, indent=1)
-    if args.png:
+    if args.png and "collect" in args.parts:
         plot(result, args.png)
     return 0 if identical else 1
 

@@ -10,10 +10,11 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
 - Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, target
   (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), grasper_tip (m).
 - Reward: 0.5 x the uncovered fraction + 0.5 x exp(-tip distance to the target centre / 2 cm).
-- Success: for 0.5 s, the grasper's tip within 1 cm of the target's centre, on an exposed working
-  spot: no tube over the target within 1.2 cm of its centre, and the grasper pushing on the bowel
-  with at most 0.5 N (it reaches the wall the retractor uncovered, it does not push its way
-  through the loops), while the retractor presses on the bowel (its force sensor reads at least
+- Success: for 0.5 s, the grasper's tip within 1 cm of the target's centre, the centre uncovered
+  (no tube over it: every tube axis farther than its radius, horizontally, as the coverage grid
+  counts), and the grasper pushing on the bowel with at most 0.5 N (it reaches the wall the
+  retractor uncovered, it does not push its way through the loops; a loop resting against its
+  shaft is allowed), while the retractor presses on the bowel (its force sensor reads at least
   0.05 N). The episode ends on success, or after 60 s.
 """
 
@@ -28,7 +29,6 @@ from viscera.tasks.scene import Tool
 REACH_M = 0.01        # tip to the target's centre
 PRESS_N = 0.05        # the retractor's force sensor: it presses on the bowel
 PUSH_N = 0.5          # the grasper's: it reaches the exposed wall, it does not push through loops
-SPOT_M = 0.012        # the working spot: no tube over the target within this of its centre
 Physics = base.Physics
 
 
@@ -46,17 +46,18 @@ class RetractReach(base.BowelTask):
     def tip_distance(self, physics: Physics) -> float:
         return float(np.linalg.norm(physics.working_point("grasper") - physics.target()[:3]))
 
-    def spot_uncovered(self, physics: Physics) -> bool:
-        """No tube over the working spot: the target's sampling points within SPOT_M of its centre."""
-        points = physics.target_points()
-        spot = points[np.linalg.norm(points[:, :2] - physics.target()[:2], axis=1) <= SPOT_M][:, :2]
-        return not physics.coverage(spot).any()
+    def centre_uncovered(self, physics: Physics) -> bool:
+        """No tube over the target's centre: every axis point farther than the tube's radius from
+        it, horizontally (a loop lifted above it covers it too)."""
+        gut = physics.intestine()
+        axis = gut.axis_points(physics.data.ptr, 4 * gut.sphere_count)[:, :2]
+        return float(np.min(np.linalg.norm(axis - physics.target()[:2], axis=1))) > gut.radius
 
     def condition(self, physics: Physics) -> bool:
         forces = physics.named.data.sensordata
         return (self.tip_distance(physics) <= REACH_M and
                 np.linalg.norm(forces["retractor_force"][:3]) >= PRESS_N and
-                np.linalg.norm(forces["grasper_force"][:3]) <= PUSH_N and self.spot_uncovered(physics))
+                np.linalg.norm(forces["grasper_force"][:3]) <= PUSH_N and self.centre_uncovered(physics))
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": physics.coverage(),
@@ -75,6 +76,6 @@ def load(seed: int | None = None, time_limit: float | None = None, control_times
 
 
 def scripted_policy(env):
-    """Clear the working spot, press the laid loops, then reach (viscera.tasks.gesture.RetractReach)."""
+    """Clear the working spot, press the laid loop, then reach (viscera.tasks.gesture.RetractReach)."""
     from viscera.tasks.gesture import RetractReach
-    return RetractReach(env, spot=SPOT_M)
+    return RetractReach(env)
