@@ -431,19 +431,31 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   double band_from = c->given[VSC_KEY_marked_band] ? c->marked_band[0] / c->rod.length : 2.0;
   double band_to = c->given[VSC_KEY_marked_band] ? c->marked_band[1] / c->rod.length : -1.0;
   int samples = vsc_rod_sample_count(it->rod), n = it->config.rod.control_count;
+  int count = c->given[VSC_KEY_draw_capsules] ? c->draw_capsules : samples - 1;
   double r_min = it->config.skin.radius_min, r_max = it->config.skin.radius_max;
-  for (int a = 0; a + 1 < samples; ++a) {
-    double x = ((double)a + 0.5) / (double)(samples - 1) * (double)(n - 1), u = x - floor(x);
+  mjtNum from[3], to[3];
+  for (int a = 0; a < count; ++a) {
+    double s = ((double)a + 0.5) / (double)count;  // the capsule's middle (fraction of the rest length)
+    double x = s * (double)(n - 1), u = x - floor(x);
     double radius = vsc_skin_radius(r_min, r_max, u);
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
+    if (c->given[VSC_KEY_draw_capsules]) {   // the spline itself at even abscissae
+      vsc_basis at_from = vsc_spline_basis(n, (double)a / (double)count);
+      vsc_basis at_to = vsc_spline_basis(n, (double)(a + 1) / (double)count);
+      vsc_basis_point(&at_from, q, from);
+      vsc_basis_point(&at_to, q, to);
+    } else {                                  // the spring samples, already evaluated
+      vsc_rod_sample_point(it->rod, a, from);
+      vsc_rod_sample_point(it->rod, a + 1, to);
+    }
     mjvGeom* geom = scn->geoms + scn->ngeom;
-    double s = ((double)a + 0.5) / (double)(samples - 1);  // the capsule's abscissa (fraction of the length)
     mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, s >= band_from && s <= band_to ? marked : color);
-    mjtNum from[3], to[3];
-    vsc_rod_sample_point(it->rod, a, from);
-    vsc_rod_sample_point(it->rod, a + 1, to);
     mjv_connector(geom, mjGEOM_CAPSULE, radius, from, to);
     geom->category = mjCAT_DYNAMIC;
+    // labelled as this plugin instance in segmentation renders (MuJoCo gives decor geoms no label)
+    geom->objtype = mjOBJ_PLUGIN;
+    geom->objid = instance;
+    geom->segid = scn->ngeom;
     scn->ngeom++;
   }
 }

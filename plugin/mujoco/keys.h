@@ -132,6 +132,11 @@
     "integral b_i b_j ds, band 7)") \
   X(marked_band, KEY_VECTOR, FIELD(marked_band), 0, 2, "m", DERIVED("none"), \
     "a stretch of the axis drawn in its own colour (blue) by MuJoCo's renderer: from, to, along the rest " \
-    "axis (0 <= from < to <= `length`); the band a task marks, e.g. to be grasped")
+    "axis (0 <= from < to <= `length`); the band a task marks, e.g. to be grasped") \
+  X(draw_capsules, KEY_COUNT, FIELD(draw_capsules), 1, 100000, "count", \
+    DERIVED("one per spring sample interval (`samples_per_segment` x (n - 1))"), \
+    "capsules MuJoCo's renderer draws along the axis, evenly spaced in the rest abscissa: fewer draw " \
+    "faster (a camera without a GPU spends its time on geometry, not pixels); drawing only, the " \
+    "physics is the same")
 
 #endif  // VISCERA_PLUGIN_KEYS_H

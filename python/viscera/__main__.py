@@ -1,4 +1,8 @@
-"""Command line: python -m viscera run SCENE.xml [--duration 5] [--png out.png] [--viewer meshcat]."""
+"""Command line:
+
+    python -m viscera run SCENE.xml [--duration 5] [--png out.png] [--viewer meshcat]
+    python -m viscera view SCENE.xml    # MuJoCo's interactive viewer, the intestine drawn
+"""
 
 from __future__ import annotations
 
@@ -176,6 +180,19 @@ def _print_summary(s: dict) -> None:
     sys.stdout.flush()
 
 
+def view(scene: str) -> None:
+    """Open MuJoCo's own interactive viewer (simulate: pause, reset, perturb, the actuators'
+    sliders, the scene's cameras) on `scene`, the plugin loaded; returns when its window closes."""
+    model = cli.load_model(scene)
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") and sys.platform.startswith("linux"):
+        raise UserError("view needs a display (DISPLAY is not set); on a machine without one, "
+                        f"`{PROG} run {scene} --png out.png` renders a picture and `--viewer meshcat` shows "
+                        "the run in a browser", status=2)
+    import mujoco.viewer
+
+    mujoco.viewer.launch(model, mujoco.MjData(model))
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
                                      "Run an MJCF scene with intestines and print a summary.")
@@ -200,6 +217,14 @@ def build_parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--host", default="127.0.0.1", help="address the viewer serves on (default: loopback only)")
     run_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     run_parser.set_defaults(command_parser=run_parser)
+    view_parser = commands.add_parser("view", help="open MuJoCo's interactive viewer on an MJCF scene",
+                                      description="Open MuJoCo's interactive viewer (simulate) on an MJCF scene "
+                                      "with the viscera plugin loaded and the intestine drawn. Its Camera menu "
+                                      "(or the [ and ] keys) switches to the scene's cameras, e.g. the "
+                                      "abdomen's laparoscope. Needs a display.")
+    view_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/abdomen.xml")
+    view_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    view_parser.set_defaults(command_parser=view_parser)
     return parser
 
 
@@ -209,8 +234,11 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:  # a misspelled option of `run` gets run's usage, not the top level's
         args.command_parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     with cli.user_errors(f"{PROG} {args.command}", args.verbose):  # the prefix argparse's errors have
-        run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record, args.record_fps,
-            args.host, args.hold, report=_print_summary)
+        if args.command == "view":
+            view(args.scene)
+        else:
+            run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record,
+                args.record_fps, args.host, args.hold, report=_print_summary)
     return 0
 
 

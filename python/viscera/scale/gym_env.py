@@ -31,6 +31,11 @@ which CleanRL-style loops cannot batch into one tensor. Here:
   A non-finite or wrong-sized action is refused by name before it reaches MuJoCo.
 - Observation bounds are given where they are known: 0 to 1 for grasper_holding
   and target_coverage (and their slices of the flat vector), unbounded elsewhere.
+- Pixels: TaskEnv(task, pixels=True, width=84, height=84) adds the camera's `pixels`
+  (uint8 RGB), `depth` (float32 m) and `segmentation` (uint8 labels) to a Dict
+  observation (images are not flattened into the float64 vector: flatten must be
+  False, its default then); pixels_only=True keeps those three alone, for vision
+  policies. viscera.pixels documents the camera, viscera.tasks.load the arguments.
 """
 
 from __future__ import annotations
@@ -44,12 +49,17 @@ from dm_env import specs
 import viscera.tasks
 from viscera.scale import observations
 from viscera.checks import finite_array
+from viscera.pixels import LABELS
 
 
 KNOWN_BOUNDS = {"grasper_holding": (0.0, 1.0), "target_coverage": (0.0, 1.0)}  # observation key -> low, high
+IMAGE_KEYS = ("pixels", "depth", "segmentation")
+IMAGE_BOUNDS = {"pixels": (0, 255), "depth": (0.0, np.inf), "segmentation": (0, max(LABELS.values()))}
 
 
 def _box(spec, key: str | None = None) -> gymnasium.spaces.Box:
+    if key in IMAGE_BOUNDS:
+        return gymnasium.spaces.Box(*IMAGE_BOUNDS[key], spec.shape, spec.dtype)
     if key in KNOWN_BOUNDS:
         return gymnasium.spaces.Box(*KNOWN_BOUNDS[key], spec.shape, np.float64)
     if isinstance(spec, specs.BoundedArray):
@@ -64,18 +74,29 @@ class TaskEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool = True,
+    def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool | None = None,
                  render_mode: str | None = None, render_size: tuple[int, int] = (240, 320),
-                 normalize_actions: bool = True, **task_kwargs):
+                 normalize_actions: bool = True, pixels_only: bool = False, **task_kwargs):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
+        pixels = bool(task_kwargs.get("pixels", False))
+        if pixels_only and not pixels:
+            raise ValueError("pixels_only = True needs pixels = True")
+        if flatten is None:
+            flatten = not pixels
+        if flatten and pixels:
+            raise ValueError("flatten = True with pixels = True: images are not flattened into the float64 vector; "
+                             "use flatten=False (a Dict observation, the default with pixels)")
         self.task_name = task
         self.dm_env = viscera.tasks.load(task, seed=seed, **task_kwargs)
         self.flatten = flatten
+        self.pixels_only = pixels_only
         self.render_mode = render_mode
         self.render_size = render_size  # (height, width) in pixels
         self.metadata = dict(self.metadata, render_fps=1.0 / self.dm_env.control_timestep())
         observation_spec = self.dm_env.observation_spec()
+        if pixels_only:
+            observation_spec = collections.OrderedDict((k, observation_spec[k]) for k in IMAGE_KEYS)
         self.observation_layout = observations.layout(observation_spec)
         if flatten:
             size = observations.size(self.observation_layout)
@@ -95,6 +116,8 @@ class TaskEnv(gymnasium.Env):
 
     def observation(self, dm_observation) -> np.ndarray | dict:
         """The gymnasium observation of a dm_env observation (flat: the entries concatenated in order)."""
+        if self.pixels_only:
+            return collections.OrderedDict((k, np.asarray(dm_observation[k])) for k in IMAGE_KEYS)
         if not self.flatten:
             return collections.OrderedDict((k, np.asarray(v)) for k, v in dm_observation.items())
         return observations.flatten(dm_observation, self.observation_layout)
@@ -143,6 +166,11 @@ class TaskEnv(gymnasium.Env):
             return np.asarray(dm_action, dtype=np.float64)
         low, high = self.dm_action_space.low, self.dm_action_space.high
         return 2.0 * (np.asarray(dm_action, dtype=np.float64) - low) / (high - low) - 1.0
+
+    def close(self) -> None:
+        """Free the pixel camera's rendering contexts (see viscera.tasks.close)."""
+        viscera.tasks.close(self.dm_env)
+        super().close()
 
     def render(self):
         if self.render_mode == "rgb_array":

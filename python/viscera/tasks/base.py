@@ -39,6 +39,8 @@ CLEAR_MARGIN = 0.01     # m: a tool is clear of the target outside it grown by t
 CLEAR_HEIGHT = 0.05     # m above the posterior wall
 STILL_RAD_S = 0.3       # rad/s: a tool's hinge at rest below this ...
 STILL_M_S = 0.03        # m/s: ... and its slide below this
+PIXEL_CAPSULES = 160    # capsules drawing the intestine when pixels are observed (1.9 cm each on 3 m):
+                        # the frame's cost is geometry; 120 showed angular bends, 512 cost 3x
 
 
 class Physics(dm_mujoco.Physics):
@@ -171,18 +173,30 @@ class BowelTask(base.Task):
         self.randomize = randomize
         self.episode: scene.Episode | None = None
         self._held_since: float | None = None
+        self.camera = None  # viscera.pixels.Camera when pixels are observed
 
     # -- the scene
     TARGET_HALF_M = (0.02, 0.015)  # the target patch's half sizes in randomised episodes (4 x 3 cm)
     HAS_TARGET = True              # the task works on the target patch (else it is not drawn)
 
     def scene_xml(self, episode: scene.Episode | None, target=None) -> str:
-        return scene.compose(self.TOOLS, episode, target, self.intestine_config(), self.TARGET_HALF_M,
-                             show_target=self.HAS_TARGET)
+        config = self.intestine_config()
+        if self.camera is not None:
+            config = dict(config, draw_capsules=str(PIXEL_CAPSULES))
+        return scene.compose(self.TOOLS, episode, target, config, self.TARGET_HALF_M, show_target=self.HAS_TARGET)
 
     def intestine_config(self) -> dict[str, str]:
         """Extra intestine config keys of this task (e.g. a marked band)."""
         return {}
+
+    def observe_pixels(self, physics: Physics, camera) -> None:
+        """Add `camera`'s frames (viscera.pixels.Camera) to the observations, the intestine drawn
+        as PIXEL_CAPSULES capsules; the physics is rebuilt for it (as every reset does)."""
+        if camera.camera not in physics.named.model.cam_fovy.axes.row.names:
+            raise ValueError(f"camera = {camera.camera!r}: the task's scene has no such camera; it has "
+                             f"{list(physics.named.model.cam_fovy.axes.row.names)}")
+        self.camera = camera
+        physics.reload_from_xml_string(self.scene_xml(self.episode))
 
     def initialize_episode(self, physics: Physics) -> None:
         self.episode = scene.draw_episode(self.random) if self.randomize else None
@@ -200,7 +214,7 @@ class BowelTask(base.Task):
             return
         self.settle(physics)
         self.draw(physics)
-        if self.intestine_config():
+        if self.intestine_config():  # the marked band (drawing only; draw_capsules is in the first build)
             model, data = physics.model.ptr, physics.data.ptr
             full = mujoco.mjtState.mjSTATE_FULLPHYSICS
             state = np.empty(mujoco.mj_stateSize(model, full))
@@ -278,6 +292,8 @@ class BowelTask(base.Task):
         observation["intestine_axis"] = physics.axis_points(self.axis_samples).ravel()
         observation["gravity"] = physics.model.opt.gravity.copy()  # m/s^2: the table's tilt
         observation.update(self.task_observations(physics))
+        if self.camera is not None:
+            observation.update(self.camera.render(physics))
         return observation
 
     def task_observations(self, physics: Physics) -> dict:
