@@ -33,6 +33,7 @@ at exit); a pickled or copied Camera keeps its settings and makes new ones when 
 from __future__ import annotations
 
 import concurrent.futures
+import os
 import queue
 import threading
 import weakref
@@ -42,6 +43,22 @@ import numpy as np
 
 LABELS = {"nothing": 0, "intestine": 1, "tool": 2, "target": 3}
 SLICES, STACKS = 8, 4      # capsule tessellation for observations (MuJoCo's default: 28 x 16)
+
+
+def _context_class():
+    """MuJoCo's GL context class for MUJOCO_GL as it is now (mujoco.GLContext was fixed when
+    MuJoCo was imported, perhaps before `import viscera` chose EGL for a machine without a
+    display)."""
+    backend = os.environ.get("MUJOCO_GL") or ("glfw" if os.environ.get("DISPLAY") else "egl")
+    if backend == "egl":
+        from mujoco.egl import GLContext
+    elif backend == "osmesa":
+        from mujoco.osmesa import GLContext
+    elif backend == "glfw":
+        from mujoco.glfw import GLContext
+    else:
+        raise ValueError(f"MUJOCO_GL = {backend!r}: must be egl, osmesa or glfw")
+    return GLContext
 
 
 class _GLThread:
@@ -58,7 +75,7 @@ class _GLThread:
 
     @staticmethod
     def _make_current(width: int, height: int):
-        gl = mujoco.GLContext(width, height)
+        gl = _context_class()(width, height)
         gl.make_current()
         return gl
 

@@ -1,0 +1,243 @@
+"""Pixel observations (viscera.pixels, tasks.load(pixels=True)): what the laparoscope sees is the
+intestine where the physics puts it, labelled, coloured and deterministic; several cameras in
+threads, copies and pickles render the same; nothing leaks a traceback at exit."""
+
+from __future__ import annotations
+
+import copy
+import pathlib
+import pickle
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import viscera.tasks
+from viscera import pixels
+
+REFERENCE = pathlib.Path(__file__).parent / "reference" / "laparoscope_clear_area_seed0.png"
+
+
+@pytest.fixture(scope="module")
+def frame():
+    """clear_area, seed 0, after its reset: the environment and its first observation at 128 x 96."""
+    env = viscera.tasks.load("clear_area", seed=0, pixels=True, width=128, height=96)
+    step = env.reset()
+    yield env, step.observation
+    viscera.tasks.close(env)
+
+
+def unproject(physics, depth: np.ndarray, rows: np.ndarray, columns: np.ndarray, camera: str = "laparoscope"):
+    """World points (m) of pixels from their depth along the camera's axis, through the camera's
+    intrinsics (vertical field of view, pixel centres) and pose (MuJoCo: x right, y up, looking
+    along -z)."""
+    height, width = depth.shape
+    focal = 0.5 * height / np.tan(np.radians(physics.named.model.cam_fovy[camera]) / 2.0)  # pixels
+    d = depth[rows, columns].astype(float)
+    in_camera = np.stack([(columns + 0.5 - 0.5 * width) / focal * d, -(rows + 0.5 - 0.5 * height) / focal * d, -d],
+                         axis=1)
+    rotation = physics.named.data.cam_xmat[camera].reshape(3, 3)
+    return physics.named.data.cam_xpos[camera] + in_camera @ rotation.T
+
+
+def distance_to_axis(physics, points: np.ndarray) -> np.ndarray:
+    """Each point's distance (m) to the intestine's axis, sampled every 0.6 mm."""
+    gut = physics.intestine()
+    axis = gut.axis_points(physics.data.ptr, 5000)
+    out = np.empty(len(points))
+    for start in range(0, len(points), 512):
+        chunk = points[start:start + 512]
+        out[start:start + 512] = np.sqrt(((chunk[:, None, :] - axis[None, :, :]) ** 2).sum(-1).min(axis=1))
+    return out
+
+
+def test_observations_have_the_documented_shapes_and_types(frame):
+    env, observation = frame
+    assert observation["pixels"].shape == (96, 128, 3) and observation["pixels"].dtype == np.uint8
+    assert observation["depth"].shape == (96, 128) and observation["depth"].dtype == np.float32
+    assert observation["segmentation"].shape == (96, 128) and observation["segmentation"].dtype == np.uint8
+    spec = env.observation_spec()
+    for key in ("pixels", "depth", "segmentation"):
+        assert spec[key].shape == observation[key].shape and spec[key].dtype == observation[key].dtype
+    assert set(np.unique(observation["segmentation"])) <= set(pixels.LABELS.values())
+    # the laparoscope looks at the bowel-covered floor: mostly intestine, some of the target
+    assert np.mean(observation["segmentation"] == pixels.LABELS["intestine"]) > 0.5
+    assert np.any(observation["segmentation"] == pixels.LABELS["target"])
+
+
+def test_intestine_pixels_unproject_onto_the_tube_surface(frame):
+    """Every pixel labelled intestine, unprojected with its depth, lies on the tube: its distance
+    to the axis is the radius r (12.5 mm) up to the drawing's approximations: 8-sided capsules
+    (their faces from r cos(pi/8) = 0.92 r to r) along 1.9 cm chords of the spline (a chord of
+    length L on a bend of radius R strays L^2 / 8R from it: 2.2 mm, 0.18 r, on the tightest 2 cm
+    bends). Every other pixel lies outside the tube."""
+    env, observation = frame
+    physics = env.physics
+    radius = physics.intestine().radius
+    rows, columns = np.nonzero(observation["segmentation"] == pixels.LABELS["intestine"])
+    distance = distance_to_axis(physics, unproject(physics, observation["depth"], rows, columns))
+    assert distance.min() > 0.6 * radius and distance.max() < 1.25 * radius, (distance.min(), distance.max())
+    assert np.mean((distance > 0.74 * radius) & (distance < 1.18 * radius)) > 0.97
+    assert 0.88 * radius < np.median(distance) < 1.0 * radius
+    rows, columns = np.nonzero(observation["segmentation"] != pixels.LABELS["intestine"])
+    outside = distance_to_axis(physics, unproject(physics, observation["depth"], rows, columns))
+    assert outside.min() > 0.95 * radius
+
+
+def test_target_pixels_unproject_onto_the_target_patch(frame):
+    env, observation = frame
+    physics = env.physics
+    rows, columns = np.nonzero(observation["segmentation"] == pixels.LABELS["target"])
+    points = unproject(physics, observation["depth"], rows, columns)
+    target = physics.target()
+    assert np.all(np.abs(points[:, :2] - target[:2]) <= target[3:5] + 0.002)  # within a pixel's footprint
+    assert np.allclose(points[:, 2], target[2], atol=0.002)
+
+
+def test_intestine_pixels_have_its_colour_under_the_laparoscope_light(frame):
+    """The capsules' colour is (0.85, 0.45, 0.45): lit by white light, red over green stays near
+    1.9 and green equals blue; the target is green."""
+    _, observation = frame
+    rgb = observation["pixels"].astype(float)
+    gut = rgb[observation["segmentation"] == pixels.LABELS["intestine"]]
+    assert np.median(gut[:, 0]) > 100  # lit, not in the dark
+    ratio = np.median(gut[:, 0] / np.maximum(gut[:, 1], 1.0))
+    assert 1.6 < ratio < 2.2, ratio
+    assert np.median(np.abs(gut[:, 1] - gut[:, 2])) <= 2
+    target = rgb[observation["segmentation"] == pixels.LABELS["target"]]
+    assert np.all(np.median(target, axis=0)[1] > 2 * np.median(target, axis=0)[[0, 2]])
+
+
+def test_render_matches_the_stored_reference():
+    """The laparoscope's first frame of clear_area seed 0 at 84 x 84 against the stored picture
+    (made by this test's own code with `VISCERA_WRITE_REFERENCE=1`), within a tolerance for
+    another Mesa's rasterisation."""
+    env = viscera.tasks.load("clear_area", seed=0, pixels=True)
+    image = env.reset().observation["pixels"]
+    viscera.tasks.close(env)
+    if "VISCERA_WRITE_REFERENCE" in __import__("os").environ:
+        REFERENCE.parent.mkdir(exist_ok=True)
+        Image.fromarray(image).save(REFERENCE)
+    reference = np.asarray(Image.open(REFERENCE).convert("RGB")).astype(int)
+    difference = np.abs(image.astype(int) - reference)
+    assert difference.mean() < 3.0 and np.mean(difference.max(axis=-1) > 40) < 0.02, difference.mean()
+
+
+def test_same_seed_same_frames_and_the_physics_is_unchanged_by_pixels():
+    """Pixels are drawing only: the state with and without them is the same, bit for bit; the
+    same seed gives the same frames."""
+    def run(pixels_on: bool):
+        env = viscera.tasks.load("grasp_lift", seed=3, pixels=pixels_on, width=32, height=24)
+        policy = viscera.tasks.scripted_policy(env)
+        step = env.reset()
+        for _ in range(20):
+            step = env.step(policy(step))
+        viscera.tasks.close(env)
+        return env.physics.get_state().copy(), step.observation
+
+    state, _ = run(False)
+    state_with, first = run(True)
+    _, second = run(True)
+    assert np.array_equal(state, state_with)
+    for key in ("pixels", "depth", "segmentation"):
+        assert np.array_equal(first[key], second[key])
+
+
+def test_cameras_in_threads_copies_and_pickles_render_alike():
+    """Two environments rendered concurrently from two threads, a deep copy and a pickled copy,
+    all give the frames one environment gives alone."""
+    def first_frame(env):
+        return env.reset().observation["pixels"]
+
+    def frames(env):  # the reset's frame, then five steps' under a fixed action
+        out = [first_frame(env)]
+        for _ in range(5):
+            out.append(env.step(np.full(env.action_spec().shape, 0.1)).observation["pixels"])
+        return out
+
+    alone = viscera.tasks.load("clear_area", seed=5, pixels=True)
+    expected = frames(alone)
+    envs = [viscera.tasks.load("clear_area", seed=5, pixels=True) for _ in range(2)]
+    results: list = [None, None]
+    barrier = threading.Barrier(2)
+
+    def work(i):
+        barrier.wait()  # both render at once
+        results[i] = frames(envs[i])
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for result in results:
+        assert all(np.array_equal(a, b) for a, b in zip(result, expected, strict=True))
+    expected = expected[0]
+    viscera.tasks.reseed(alone, 5)
+    copied, pickled = copy.deepcopy(alone), pickle.loads(pickle.dumps(alone))
+    assert np.array_equal(first_frame(copied), expected)
+    assert np.array_equal(first_frame(pickled), expected)
+    for env in [alone, copied, pickled, *envs]:
+        viscera.tasks.close(env)
+    assert first_frame(alone).shape == expected.shape  # a closed camera renders again on demand
+
+
+def test_bad_pixel_arguments_are_refused_by_name():
+    with pytest.raises(ValueError, match="pixels = 'yes'"):
+        viscera.tasks.load("grasp_lift", pixels="yes")
+    with pytest.raises(ValueError, match="width = 0"):
+        viscera.tasks.load("grasp_lift", pixels=True, width=0)
+    with pytest.raises(ValueError, match="height = 2.5"):
+        viscera.tasks.load("grasp_lift", pixels=True, height=2.5)
+    with pytest.raises(ValueError, match="camera = 'nope'.*laparoscope"):
+        viscera.tasks.load("grasp_lift", pixels=True, camera="nope")
+
+
+def test_gymnasium_dict_spaces_and_pixels_only():
+    import gymnasium as gym
+    from viscera.scale.gym_env import TaskEnv
+
+    env = TaskEnv("grasp_lift", seed=0, pixels=True, width=32, height=24)
+    observation, _ = env.reset(seed=0)
+    assert isinstance(env.observation_space, gym.spaces.Dict) and env.observation_space.contains(observation)
+    assert observation["pixels"].shape == (24, 32, 3)
+    env.close()
+    with pytest.raises(ValueError, match="flatten = True with pixels"):
+        TaskEnv("grasp_lift", flatten=True, pixels=True)
+    with pytest.raises(ValueError, match="pixels_only = True needs pixels"):
+        TaskEnv("grasp_lift", pixels_only=True)
+    env = gym.make("viscera/GraspLift-v0", pixels=True, pixels_only=True, width=32, height=24)
+    observation, _ = env.reset(seed=1)
+    assert list(observation) == ["pixels", "depth", "segmentation"] and env.observation_space.contains(observation)
+    observation, *_ = env.step(env.action_space.sample())
+    assert env.observation_space.contains(observation)
+    env.close()
+
+
+def test_vector_envs_in_threads_pass_pixels():
+    from viscera.scale import vector
+
+    envs = vector.make("grasp_lift", num_envs=2, seed=0, backend="threads", pixels=True, pixels_only=True,
+                       width=32, height=24)
+    observations, _ = envs.reset(seed=0)
+    assert observations["pixels"].shape == (2, 24, 32, 3)
+    observations, *_ = envs.step(np.zeros(envs.action_space.shape))
+    assert (observations["segmentation"] == pixels.LABELS["intestine"]).any(axis=(1, 2)).all()
+    envs.close()
+
+
+def test_an_open_camera_at_exit_leaves_no_traceback():
+    """A process that renders and exits without closing anything (the camera freed at exit), and
+    one that closes explicitly, both exit 0 with nothing on stderr."""
+    code = ("import viscera.tasks\n"
+            "env = viscera.tasks.load('grasp_lift', seed=0, pixels=True)\n"
+            "env.reset()\n"
+            "{close}")
+    for close in ("", "viscera.tasks.close(env)"):
+        done = subprocess.run([sys.executable, "-c", code.format(close=close)], capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr
+        assert "Traceback" not in done.stderr and "Error" not in done.stderr, done.stderr
