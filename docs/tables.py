@@ -6,7 +6,8 @@
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
 is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json), docs/scale/tasks.json (python
+(python python/tools/bench_cavity.py --json), docs/pixels/bench.json (python
+python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
@@ -155,6 +156,21 @@ def task_throughput() -> str:
     rows = [[f"`{r['task']}`", f"{r['reset_s']:.2f}"] + [f"{r['steps_per_s'][p]:.0f}" for p in policies]
             for r in data["tasks"]]
     return _rows(["task", "reset (s)"] + [f"env steps/s, {p}" for p in policies], rows)
+
+
+def pixel_speed() -> str:
+    """From docs/pixels/bench.json (python python/tools/bench_pixels.py --json docs/pixels/bench.json)."""
+    data = _json("pixels/bench.json")
+    rows = []
+    for r in data["rows"]:
+        f = r["frame_ms"]
+        rows.append([f"{r['size']} x {r['size']}", f"{r['steps_per_s_off']:.0f}", f"{r['steps_per_s_on']:.0f}",
+                     f"{f['whole frame']:.1f}", f"{f['scene update']:.2f}", f"{f['render']:.2f}",
+                     f"{f['read-back']:.2f}", f"{f['labels and arrays']:.2f}",
+                     f"{r['peer_ms']['laparoscope']:.0f} ({r['speedup_over_peer']:.0f}x)"])
+    return _rows(["frame", "env steps/s, pixels off", "env steps/s, pixels on", "frame (ms)", "scene update",
+                  "render (2 draws)", "read-back", "labels, arrays", "MuJoCo's renderer at the defaults, RGB only (ms)"],
+                 rows)
 
 
 def config_keys() -> str:

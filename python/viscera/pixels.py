@@ -242,15 +242,19 @@ class Camera:
             if self._lights is not None:
                 self._own_lights_only(scene)
             self._gl.call(self._draw)
-            labels = self._labels(model, scene)
-            extent = model.stat.extent
-            near, far = model.vis.map.znear * extent, model.vis.map.zfar * extent
-            depth = near / (1.0 - self._depth * (1.0 - near / far))  # metres along the camera's axis
-            segid = (self._ids[..., 0].astype(np.int32) | (self._ids[..., 1].astype(np.int32) << 8)
-                     | (self._ids[..., 2].astype(np.int32) << 16))  # segid + 1; 0 where nothing was drawn
-            return {"pixels": np.flipud(self._rgb).copy(),
-                    "depth": np.flipud(depth).astype(np.float32),
-                    "segmentation": np.flipud(labels[np.minimum(segid, len(labels) - 1)])}
+            return self._arrays(model, scene)
+
+    def _arrays(self, model: mujoco.MjModel, scene: mujoco.MjvScene) -> dict[str, np.ndarray]:
+        """The frame read back, as the observations' arrays: fresh, top row first."""
+        labels = self._labels(model, scene)
+        extent = model.stat.extent
+        near, far = model.vis.map.znear * extent, model.vis.map.zfar * extent
+        depth = near / (1.0 - self._depth * (1.0 - near / far))  # metres along the camera's axis
+        segid = (self._ids[..., 0].astype(np.int32) | (self._ids[..., 1].astype(np.int32) << 8)
+                 | (self._ids[..., 2].astype(np.int32) << 16))  # segid + 1; 0 where nothing was drawn
+        return {"pixels": np.flipud(self._rgb).copy(),
+                "depth": np.flipud(depth).astype(np.float32),
+                "segmentation": np.flipud(labels[np.minimum(segid, len(labels) - 1)])}
 
     def _own_lights_only(self, scene: mujoco.MjvScene) -> None:
         kept = 0

@@ -6,6 +6,7 @@ that: a tool that simulated before checking its input times out instead of passi
 
 import argparse
 import importlib
+import os
 import pathlib
 import re
 import signal
@@ -27,7 +28,8 @@ TOOLS = {"python -m viscera": "viscera.__main__", "python -m viscera.tasks.gestu
          "python -m viscera.meshcat_server": "viscera.meshcat_server",
          **{f"python python/tools/{name}.py": name.replace("/", ".")
             for name in ("settle", "soak", "validate", "validation/peers", "bench_fall", "bench_cavity",
-                         "bench_rollout", "bench_scale")}}
+                         "bench_rollout", "bench_scale", "bench_pixels", "pixel_pictures", "task_rates",
+                         "task_pictures")}}
 
 
 def command(prog: str) -> list[str]:
@@ -189,6 +191,19 @@ def test_a_good_run_still_works(tmp_path):
     assert "simulated time   0.100 s" in result.stdout and (tmp_path / "out.png").stat().st_size > 1000
 
 
+def test_view_reports_a_missing_scene_in_one_line(tmp_path):
+    assert_one_line(viscera("view", tmp_path / "nope.xml"), "nope.xml", "no such scene file")
+
+
+def test_view_without_a_display_says_what_works_instead(tmp_path):
+    """No display: one line naming the headless alternatives, before any window is tried."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run([*command("python -m viscera"), "view", str(SCENES / "abdomen.xml")], capture_output=True,
+                            text=True, timeout=QUICK, env=env)
+    assert result.returncode == 2
+    assert_one_line(result, "needs a display", "--png", "--viewer meshcat")
+
+
 # --- every tool ---
 
 @pytest.mark.parametrize("prog", TOOLS)
@@ -235,6 +250,8 @@ SETTLE = "python python/tools/settle.py"
     ("python -m viscera.tasks.gesture", ["--duration", "nan"], ["--duration", "nan"]),
     ("python -m viscera.tasks.gesture", ["--png-after", "no/such/folder/a.png"], ["--png-after", "does not exist"]),
     ("python python/tools/bench_fall.py", ["--duration", "nan"], ["--duration", "nan"]),
+    ("python python/tools/bench_pixels.py", ["--sizes", "0"], ["--sizes", "0"]),
+    ("python python/tools/bench_scale.py", ["--parts", "pixels"], ["--parts", "pixels"]),
     (SETTLE, ["--out", "s.xml", "--duration", "inf"], ["--duration", "inf"]),
 ])
 def test_other_tools_check_their_options_first(tmp_path, prog, args, names):

@@ -5,6 +5,8 @@ threads, copies and pickles render the same; nothing leaks a traceback at exit."
 from __future__ import annotations
 
 import copy
+import ctypes.util
+import os
 import pathlib
 import pickle
 import subprocess
@@ -118,7 +120,7 @@ def test_render_matches_the_stored_reference():
     env = viscera.tasks.load("clear_area", seed=0, pixels=True)
     image = env.reset().observation["pixels"]
     viscera.tasks.close(env)
-    if "VISCERA_WRITE_REFERENCE" in __import__("os").environ:
+    if "VISCERA_WRITE_REFERENCE" in os.environ:
         REFERENCE.parent.mkdir(exist_ok=True)
         Image.fromarray(image).save(REFERENCE)
     reference = np.asarray(Image.open(REFERENCE).convert("RGB")).astype(int)
@@ -241,3 +243,20 @@ def test_an_open_camera_at_exit_leaves_no_traceback():
                               timeout=300)
         assert done.returncode == 0, done.stderr
         assert "Traceback" not in done.stderr and "Error" not in done.stderr, done.stderr
+
+
+@pytest.mark.skipif(ctypes.util.find_library("OSMesa") is None,
+                    reason="needs Mesa's OSMesa (.ci/run installs libosmesa6)")
+def test_osmesa_renders_the_reference_too(tmp_path):
+    """MUJOCO_GL=osmesa (software rendering without EGL) gives the stored reference frame."""
+    code = ("import numpy as np, viscera.tasks\n"
+            "env = viscera.tasks.load('clear_area', seed=0, pixels=True)\n"
+            "import sys\n"
+            "np.save(sys.argv[1], env.reset().observation['pixels'])\n")
+    out = tmp_path / "frame.npy"
+    env = dict(os.environ, MUJOCO_GL="osmesa", PYOPENGL_PLATFORM="osmesa")
+    done = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    image = np.load(out).astype(int)
+    reference = np.asarray(Image.open(REFERENCE).convert("RGB")).astype(int)
+    assert np.abs(image - reference).mean() < 3.0

@@ -97,6 +97,30 @@ class Physics(dm_mujoco.Physics):
     def uncovered_fraction(self) -> float:
         return float(1.0 - self.coverage().mean())
 
+    # -- the laparoscope
+    def aim_laparoscope(self, point) -> None:
+        """Turn the laparoscope (camera `laparoscope` and its light) to look at `point` (m), the
+        image's up towards the cranial side, as the camera assistant aims the scope at the
+        working area. The pose is a model constant, not state (as the target's place)."""
+        model, data = self.model.ptr, self.data.ptr
+        camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
+        if camera < 0:
+            return
+        body = model.cam_bodyid[camera]
+        position = data.xpos[body] + data.xmat[body].reshape(3, 3) @ model.cam_pos[camera]
+        back = position - np.asarray(point, dtype=float)  # the camera looks along its -z
+        back /= np.linalg.norm(back)
+        up = np.array([0.0, 1.0, 0.0]) - back[1] * back
+        up /= np.linalg.norm(up)
+        world = np.stack([np.cross(up, back), up, back], axis=1)  # columns: the camera's x, y, z
+        in_body = data.xmat[body].reshape(3, 3).T @ world
+        mujoco.mju_mat2Quat(model.cam_quat[camera], in_body.ravel())
+        for light in range(model.nlight):
+            if model.light_bodyid[light] == body:
+                model.light_dir[light] = -in_body[:, 2]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_camlight(model, data)
+
     # -- the tools
     def tools(self) -> tuple[str, ...]:
         """The scene's tools, by name, in the order of their actuators."""
@@ -222,6 +246,7 @@ class BowelTask(base.Task):
             physics.reload_from_xml_string(self.scene_xml(self.episode))
             mujoco.mj_setState(physics.model.ptr, physics.data.ptr, state, full)
             mujoco.mj_forward(physics.model.ptr, physics.data.ptr)
+        physics.aim_laparoscope(self.view_point(physics))
 
     def settle(self, physics: Physics) -> None:
         """SETTLE_S s with the tools withdrawn and their jaws open, then the clock back to 0."""
@@ -233,6 +258,11 @@ class BowelTask(base.Task):
             mujoco.mj_step(model, data)
         data.time = 0.0
         data.qvel[:] = 0.0  # the tools' joints rest; the bowel keeps its own state (plugin_state)
+
+    def view_point(self, physics: Physics) -> np.ndarray:
+        """Where the laparoscope looks this episode (m): the target's centre; a task without one
+        names its own working point."""
+        return physics.target()[:3]
 
     def draw(self, physics: Physics) -> None:
         """The task's own random details, on the settled bowel (default: none). Not called

@@ -57,6 +57,9 @@ class GraspLift(base.BowelTask):
         centre = float(centres[int(np.argmax(heights))])
         self.band = (centre - BAND_M / 2, centre + BAND_M / 2)
 
+    def view_point(self, physics: Physics) -> np.ndarray:
+        return physics.axis_point_at(0.5 * (self.band[0] + self.band[1]))
+
     def band_points(self, physics: Physics) -> np.ndarray:
         return np.stack([physics.axis_point_at(s) for s in np.linspace(*self.band, BAND_POINTS)])
 

@@ -62,6 +62,9 @@ class RunTheBowel(base.BowelTask):
         self._reset_run()
         super().initialize_episode(physics)
 
+    def view_point(self, physics: Physics) -> np.ndarray:
+        return physics.axis_point_at(self.mark)
+
     def draw(self, physics: Physics) -> None:
         """The mark: of eight draws, the most exposed (highest) that both graspers reach."""
         marks = self.random.uniform(0.5, 2.5, 8)
