@@ -32,6 +32,7 @@ at exit); a pickled or copied Camera keeps its settings and makes new ones when 
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures
 import os
 import queue
@@ -61,6 +62,17 @@ def _context_class():
     return GLContext
 
 
+_LIVE: weakref.WeakSet = weakref.WeakSet()  # GL threads not yet freed
+_EXIT_HOOK: list = []
+
+
+def _free_all() -> None:
+    """At exit, before MuJoCo's EGL module terminates its display (an atexit hook registered when
+    it was imported, so run after this one): free every camera's contexts still open."""
+    for gl in list(_LIVE):
+        gl.free()
+
+
 class _GLThread:
     """A daemon thread holding one OpenGL context current and making every call on it. Daemon:
     interpreter shutdown joins the other threads before the atexit hooks run, and the hook that
@@ -72,6 +84,9 @@ class _GLThread:
         self._thread.start()
         self.context = None  # the MuJoCo rendering context (mujoco.MjrContext), made on this thread
         self._gl = self.call(self._make_current, width, height)
+        _LIVE.add(self)
+        if not _EXIT_HOOK:  # after the GL backend's import: atexit runs the later hook first
+            _EXIT_HOOK.append(atexit.register(_free_all))
 
     @staticmethod
     def _make_current(width: int, height: int):
@@ -100,6 +115,7 @@ class _GLThread:
 
     def free(self) -> None:
         """Free the MuJoCo and OpenGL contexts on this thread, then end it."""
+        _LIVE.discard(self)
         if not self._thread.is_alive():
             return
         try:

@@ -124,3 +124,14 @@ for thread in set(threading.enumerate()) - before:
     _, err = process.communicate(input="", timeout=60)
     assert count > 20000, count
     assert process.returncode == 0 and "Traceback" not in err, err
+
+
+def test_the_documented_passive_viewer_snippet_runs(display):
+    """docs/pixels.md's launch_passive snippet, as written, on the virtual display: 10 simulated
+    seconds in the viewer, then a clean exit."""
+    import re
+    page = (ROOT / "docs" / "pixels.md").read_text()
+    code = next(block for block in re.findall(r"```python\n(.*?)```", page, re.S) if "launch_passive" in block)
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=environment(display), capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
