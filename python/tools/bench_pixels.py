@@ -66,10 +66,7 @@ def frame_parts(task: str, size: int) -> dict:
     scene, gl = camera._scene, camera._gl  # the camera's own parts, timed one by one
 
     def update():
-        mujoco.mjv_updateScene(model, data, camera._option, None, camera._mjv_camera, mujoco.mjtCatBit.mjCAT_ALL,
-                               scene)
-        if camera._lights is not None:
-            camera._own_lights_only(scene)
+        camera._update(model, data)
 
     def draws():
         mujoco.mjr_render(camera._viewport, scene, gl.context)

@@ -193,8 +193,9 @@ class Camera:
         self._mjv_camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
         self._mjv_camera.fixedcamid = camera_id
         self._viewport = mujoco.MjrRect(0, 0, self.width, self.height)
-        # a camera that carries its own light (a laparoscope) is lit by it alone, plus the
-        # headlight's ambient as a dim fill: the scene's other lights would shine through the walls
+        # a camera that carries its own light (a laparoscope) is lit by it alone, on even where the
+        # model has it off (for people's views), plus the headlight's ambient as a dim fill: the
+        # scene's other lights would shine through the walls
         body = model.cam_bodyid[camera_id]
         own = [i for i in range(model.nlight) if model.light_bodyid[i] == body]
         self._lights = set(own) if own else None
@@ -253,12 +254,26 @@ class Camera:
         with self._lock:
             self._prepare(model)
             scene = self._scene
-            mujoco.mjv_updateScene(model, data, self._option, None, self._mjv_camera,
-                                   mujoco.mjtCatBit.mjCAT_ALL, scene)
-            if self._lights is not None:
-                self._own_lights_only(scene)
+            self._update(model, data)
             self._gl.call(self._draw)
             return self._arrays(model, scene)
+
+    def _update(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """The scene of this frame: the camera's own lights on (even where the model has them off,
+        for people's views) and alone."""
+        scene = self._scene
+        if self._lights is not None:
+            own = list(self._lights)
+            active = model.light_active[own].copy()
+            model.light_active[own] = 1
+        try:
+            mujoco.mjv_updateScene(model, data, self._option, None, self._mjv_camera, mujoco.mjtCatBit.mjCAT_ALL,
+                                   scene)
+        finally:
+            if self._lights is not None:
+                model.light_active[own] = active
+        if self._lights is not None:
+            self._own_lights_only(scene)
 
     def _arrays(self, model: mujoco.MjModel, scene: mujoco.MjvScene) -> dict[str, np.ndarray]:
         """The frame read back, as the observations' arrays: fresh, top row first."""
