@@ -292,11 +292,12 @@ class RetractReach(ClearingGesture):
     0 % (the retractor must press); a 90 s limit, 44 %."""
 
     def __init__(self, env, spot: float = 0.004, centre_radius: float = 0.004, press_force: float = 0.05,
-                 push_force: float = 0.5, **kwargs):
+                 push_force: float = 0.5, reach_height: float = 0.002, **kwargs):
         self.spot = spot  # m
         self.centre_radius = centre_radius  # m: the coverage cells that make the target's centre
         self.press_force = press_force  # N: the retractor presses when its sensor reads this
         self.push_force = push_force  # N: the grasper pushes its way through loops above this
+        self.reach_height = reach_height  # m: the tip's goal above the target's centre
         kwargs = dict(dict(good_enough=1.0, resume_below=0.0, press=True, sideways=True, carry_beyond=0.06,
                            carry_height=0.07), **kwargs)
         super().__init__(env, **kwargs)
@@ -321,7 +322,7 @@ class RetractReach(ClearingGesture):
 
     def _plan_withdraw(self) -> None:
         g = "grasper"
-        centre = np.append(self.centre, 0.002)
+        centre = np.append(self.centre, self.reach_height)
         self.phases += [
             Phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),
                                                   jaw=JAW_OPEN_DEG), 0.45), self._hold("retractor")),
