@@ -195,7 +195,8 @@ def view(scene: str) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
-                                     "Run an MJCF scene with intestines and print a summary.")
+                                     "Run an MJCF scene with intestines and print a summary, or open it in "
+                                     "MuJoCo's viewer.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run_parser = commands.add_parser("run", help="simulate an MJCF scene and print a summary",
                                      description="Simulate an MJCF scene and print a summary. Every option is "
