@@ -6,14 +6,16 @@
     camera.close()
 
 On a machine without a GPU (Mesa's llvmpipe behind EGL or OSMesa) a frame's cost is geometry, not
-pixels: the shipped abdomen from its `top` camera costs 525 ms per 84 x 84 frame with MuJoCo's
-defaults. A Camera renders with the settings observations need, set in its own MuJoCo rendering
+pixels: the shipped abdomen costs 350 to 510 ms per 84 x 84 RGB frame with MuJoCo's defaults
+(python/tools/bench_pixels.py). A Camera renders with the settings observations need, set in its own MuJoCo rendering
 context (a human's `physics.render` or viewer keeps the model's):
 - capsules tessellated 8 x 4 instead of 28 x 16 (a capsule 12 pixels wide shows no facets);
 - no multisampling, no shadows, no reflections;
 - one scene update, then two draws: RGB and depth read back together, then the segmentation.
-The intestine draws as many capsules as its `draw_capsules` key says (viscera.tasks draws 120,
-2.5 cm each, for pixel observations): that, not the pixels, sets the cost.
+The intestine draws as many capsules as its `draw_capsules` key says (viscera.tasks draws 160,
+1.9 cm each, for pixel observations): that, not the pixels, sets the cost. A camera that carries
+lights (the laparoscope) is lit by them alone, on even where the model has them off; a camera on
+the world body keeps the scene's lighting.
 
 Labels (`segmentation`): 0 nothing of the below (walls, background), 1 the intestine (the plugin's
 geoms), 2 a tool (any geom or site of a body under a trocar), 3 the target patch (site
@@ -63,12 +65,14 @@ def _context_class():
 
 
 _LIVE: weakref.WeakSet = weakref.WeakSet()  # GL threads not yet freed
+_FREEING = threading.RLock()
 _EXIT_HOOK: list = []
 
 
 def _free_all() -> None:
-    """At exit, before MuJoCo's EGL module terminates its display (an atexit hook registered when
-    it was imported, so run after this one): free every camera's contexts still open."""
+    """At exit, before MuJoCo's EGL module terminates its display (an atexit hook it registers
+    when it makes its first context, before this one is registered, so run after it): free every
+    camera's contexts still open."""
     for gl in list(_LIVE):
         gl.free()
 
@@ -83,9 +87,16 @@ class _GLThread:
         self._thread = threading.Thread(target=self._serve, name="viscera-camera", daemon=True)
         self._thread.start()
         self.context = None  # the MuJoCo rendering context (mujoco.MjrContext), made on this thread
-        self._gl = self.call(self._make_current, width, height)
+        self.closed = False
+        try:
+            self._gl = self.call(self._make_current, width, height)
+        except BaseException:  # no GL context: the thread ends with it
+            self.closed = True
+            self._jobs.put(None)
+            self._thread.join()
+            raise
         _LIVE.add(self)
-        if not _EXIT_HOOK:  # after the GL backend's import: atexit runs the later hook first
+        if not _EXIT_HOOK:  # after the backend's first context: atexit runs the later hook first
             _EXIT_HOOK.append(atexit.register(_free_all))
 
     @staticmethod
@@ -109,21 +120,25 @@ class _GLThread:
     def call(self, function, *args):
         if threading.current_thread() is self._thread:  # e.g. a finalizer run by a collection on it
             return function(*args)
+        if self.closed:  # a job queued behind the end would wait forever
+            raise RuntimeError("the camera's GL thread has ended (freed at exit or closed)")
         future: concurrent.futures.Future = concurrent.futures.Future()
         self._jobs.put((future, function, args))
         return future.result()
 
     def free(self) -> None:
         """Free the MuJoCo and OpenGL contexts on this thread, then end it."""
-        _LIVE.discard(self)
-        if not self._thread.is_alive():
-            return
-        try:
-            self.call(self._free_contexts)
-        finally:
-            self._jobs.put(None)
-            if threading.current_thread() is not self._thread:
-                self._thread.join()
+        with _FREEING:  # one free at a time: a second one finds the thread closed
+            _LIVE.discard(self)
+            if self.closed:
+                return
+            try:
+                self.call(self._free_contexts)
+            finally:
+                self.closed = True
+                self._jobs.put(None)
+                if threading.current_thread() is not self._thread:
+                    self._thread.join()
 
     def _free_contexts(self) -> None:
         if self.context is not None:
@@ -169,6 +184,8 @@ class Camera:
     def _prepare(self, model: mujoco.MjModel) -> None:
         """Make the contexts for `model` (a scene with its own tools: each episode's rebuild makes
         a new model), with the observation settings."""
+        if self._gl is not None and self._gl.closed:  # freed at exit: new contexts
+            self._reset_context()
         if self._model is model:
             return
         camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
@@ -197,8 +214,8 @@ class Camera:
         # model has it off (for people's views), plus the headlight's ambient as a dim fill: the
         # scene's other lights would shine through the walls
         body = model.cam_bodyid[camera_id]
-        own = [i for i in range(model.nlight) if model.light_bodyid[i] == body]
-        self._lights = set(own) if own else None
+        own = [i for i in range(model.nlight) if model.light_bodyid[i] == body] if body != 0 else []
+        self._lights = own or None  # a camera on the world body carries no light: the scene's lighting
         # label of each model geom and site: a tool's bodies hang under its trocar (a world child)
         tools = {model.body(f"{t}_trocar").id for t in _tool_names(model)}
         self._geom_label = np.where(np.isin(model.body_rootid[model.geom_bodyid], list(tools)),
@@ -259,21 +276,27 @@ class Camera:
             return self._arrays(model, scene)
 
     def _update(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """The scene of this frame: the camera's own lights on (even where the model has them off,
-        for people's views) and alone."""
+        """The scene of this frame; a camera that carries lights is lit by them alone (on even
+        where the model has them off, for people's views), the headlight kept as ambient fill."""
         scene = self._scene
-        if self._lights is not None:
-            own = list(self._lights)
-            active = model.light_active[own].copy()
-            model.light_active[own] = 1
-        try:
-            mujoco.mjv_updateScene(model, data, self._option, None, self._mjv_camera, mujoco.mjtCatBit.mjCAT_ALL,
-                                   scene)
-        finally:
-            if self._lights is not None:
-                model.light_active[own] = active
-        if self._lights is not None:
-            self._own_lights_only(scene)
+        mujoco.mjv_updateScene(model, data, self._option, None, self._mjv_camera, mujoco.mjtCatBit.mjCAT_ALL, scene)
+        if self._lights is None:
+            return
+        kept = 0
+        for i in range(scene.nlight):  # the headlight only, without its diffuse and specular parts
+            light = scene.lights[i]
+            if light.headlight:
+                light.diffuse[:] = 0.0
+                light.specular[:] = 0.0
+                if kept != i:
+                    _copy_light(scene.lights[kept], light)
+                kept += 1
+        for i in self._lights:  # the camera's own, from the model and this state, not the model's on/off
+            if kept >= len(scene.lights):
+                break
+            _model_light(scene.lights[kept], model, data, i)
+            kept += 1
+        scene.nlight = kept
 
     def _arrays(self, model: mujoco.MjModel, scene: mujoco.MjvScene) -> dict[str, np.ndarray]:
         """The frame read back, as the observations' arrays: fresh, top row first."""
@@ -286,20 +309,6 @@ class Camera:
         return {"pixels": np.flipud(self._rgb).copy(),
                 "depth": np.flipud(depth).astype(np.float32),
                 "segmentation": np.flipud(labels[np.minimum(segid, len(labels) - 1)])}
-
-    def _own_lights_only(self, scene: mujoco.MjvScene) -> None:
-        kept = 0
-        for i in range(scene.nlight):
-            light = scene.lights[i]
-            if light.headlight:
-                light.diffuse[:] = 0.0
-                light.specular[:] = 0.0
-            elif light.id not in self._lights:
-                continue
-            if kept != i:
-                _copy_light(scene.lights[kept], light)
-            kept += 1
-        scene.nlight = kept
 
     def _labels(self, model: mujoco.MjModel, scene: mujoco.MjvScene) -> np.ndarray:
         """The label of each segmentation colour (segid + 1) of this frame's scene."""
@@ -322,11 +331,25 @@ class Camera:
 def _assets(model: mujoco.MjModel):
     """What a MuJoCo rendering context holds of a model beyond MuJoCo's built-in shapes, when it
     holds nothing else: then a context made for one such model draws any other (each episode's
-    rebuild of the scene is one); None when the model has meshes, textures, height fields, skins
-    or flexes (a new context then)."""
-    if model.nmesh or model.ntex or model.nhfield or model.nskin or model.nflex:
+    rebuild of the scene is one); None when the model has meshes, textures, height fields, skins,
+    flexes or planes (a new context then)."""
+    if model.nmesh or model.ntex or model.nhfield or model.nskin or model.nflex or \
+            np.any(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE):  # planes have model-sized display lists
         return None
     return ("built-in shapes only",)
+
+
+def _model_light(to: mujoco.MjvLight, model: mujoco.MjModel, data: mujoco.MjData, light: int) -> None:
+    """Scene light `to` made from the model's light `light` where this state puts it."""
+    to.pos[:] = data.light_xpos[light]
+    to.dir[:] = data.light_xdir[light]
+    for field in ("ambient", "attenuation", "diffuse", "specular"):
+        getattr(to, field)[:] = getattr(model, f"light_{field}")[light]
+    to.cutoff, to.exponent = float(model.light_cutoff[light]), float(model.light_exponent[light])
+    to.bulbradius, to.intensity = float(model.light_bulbradius[light]), float(model.light_intensity[light])
+    to.range = float(model.light_range[light])
+    to.type, to.texid = int(model.light_type[light]), int(model.light_texid[light])
+    to.castshadow, to.headlight, to.id = 0, 0, light
 
 
 def _copy_light(to: mujoco.MjvLight, source: mujoco.MjvLight) -> None:

@@ -79,7 +79,9 @@ class TaskEnv(gymnasium.Env):
                  normalize_actions: bool = True, pixels_only: bool = False, **task_kwargs):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
-        pixels = bool(task_kwargs.get("pixels", False))
+        if not isinstance(pixels_only, (bool, np.bool_)):
+            raise ValueError(f"pixels_only = {pixels_only!r}: must be True or False")
+        pixels = task_kwargs.get("pixels", False) is True or task_kwargs.get("pixels") is np.True_
         if pixels_only and not pixels:
             raise ValueError("pixels_only = True needs pixels = True")
         if flatten is None:

@@ -31,7 +31,9 @@ def load(name: str, seed: int | None = None, pixels: bool = False, width: int = 
     if not isinstance(pixels, (bool, np.bool_)):
         raise ValueError(f"pixels = {pixels!r}: must be True or False")
     from viscera.pixels import Camera
-    observer = Camera(width, height, camera) if pixels else None  # refuses bad sizes before loading
+    observer = Camera(width, height, camera)  # refuses bad sizes before loading, pixels on or off
+    if not pixels:
+        observer = None
     module = importlib.import_module(f"viscera.tasks.{TASKS[name][0]}")
     env = module.load(seed=seed, **kwargs)
     if observer is not None:
