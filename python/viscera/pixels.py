@@ -65,7 +65,6 @@ def _context_class():
 
 
 _LIVE: weakref.WeakSet = weakref.WeakSet()  # GL threads not yet freed
-_FREEING = threading.RLock()
 _EXIT_HOOK: list = []
 
 
@@ -87,11 +86,13 @@ class _GLThread:
         self._thread = threading.Thread(target=self._serve, name="viscera-camera", daemon=True)
         self._thread.start()
         self.context = None  # the MuJoCo rendering context (mujoco.MjrContext), made on this thread
-        self.closed = False
+        self.closed = False      # the thread has ended: calls are refused
+        self._closing = False    # a free has begun
+        self._state = threading.RLock()
         try:
             self._gl = self.call(self._make_current, width, height)
         except BaseException:  # no GL context: the thread ends with it
-            self.closed = True
+            self.closed = self._closing = True
             self._jobs.put(None)
             self._thread.join()
             raise
@@ -128,17 +129,20 @@ class _GLThread:
 
     def free(self) -> None:
         """Free the MuJoCo and OpenGL contexts on this thread, then end it."""
-        with _FREEING:  # one free at a time: a second one finds the thread closed
-            _LIVE.discard(self)
-            if self.closed:
+        # the first caller frees, any other returns at once: no lock is held while waiting, since a
+        # collection on the GL thread may run another camera's finalizer, or this one's
+        with self._state:
+            if self._closing:
                 return
-            try:
-                self.call(self._free_contexts)
-            finally:
-                self.closed = True
-                self._jobs.put(None)
-                if threading.current_thread() is not self._thread:
-                    self._thread.join()
+            self._closing = True
+        _LIVE.discard(self)
+        try:
+            self.call(self._free_contexts)
+        finally:
+            self.closed = True
+            self._jobs.put(None)
+            if threading.current_thread() is not self._thread:
+                self._thread.join()
 
     def _free_contexts(self) -> None:
         if self.context is not None:
