@@ -81,7 +81,7 @@ class TaskEnv(gymnasium.Env):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
         if not isinstance(pixels_only, (bool, np.bool_)):
             raise ValueError(f"pixels_only = {pixels_only!r}: must be True or False")
-        pixels = task_kwargs.get("pixels", False) is True or task_kwargs.get("pixels") is np.True_
+        pixels = bool(task_kwargs.get("pixels", False))  # a value not True or False: refused by tasks.load
         if pixels_only and not pixels:
             raise ValueError("pixels_only = True needs pixels = True")
         if flatten is None:
