@@ -336,7 +336,13 @@ REACH_DEG = 55.0  # a tool reaches a point when its shaft, pointed at it, leans 
 def within_reach(physics: Physics, tool: str, point) -> bool:
     """Whether the shaft of `tool`, pointed from its trocar at `point` (m), leans at most
     REACH_DEG from vertical about both of its pivot axes (the joints stop at 60)."""
-    d = np.asarray(point, dtype=float) - physics.named.model.body_pos[f"{tool}_trocar"]
+    return shaft_within_reach(physics.named.model.body_pos[f"{tool}_trocar"], point)
+
+
+def shaft_within_reach(trocar, point) -> bool:
+    """Whether a shaft from `trocar` (m) pointed at `point` (m) leans at most REACH_DEG from
+    vertical about both pivot axes."""
+    d = np.asarray(point, dtype=float) - np.asarray(trocar, dtype=float)
     u = d / np.linalg.norm(d)
     pitch, yaw = np.degrees(np.arctan2(u[1], -u[2])), np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
     return abs(pitch) <= REACH_DEG and abs(yaw) <= REACH_DEG

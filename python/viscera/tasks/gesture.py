@@ -29,11 +29,14 @@ import dataclasses
 import numpy as np
 
 from viscera import cli
-from viscera.tasks.base import GRID
+from viscera.tasks import carry, scene
+from viscera.tasks.base import GRID, shaft_within_reach
 from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Tools
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
+CAVITY_LOW, CAVITY_HIGH = np.array([-0.12, -0.10]), np.array([0.12, 0.10])  # m: where loops are laid, x y
+LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
 
 
 @dataclasses.dataclass
@@ -49,9 +52,11 @@ class ClearingGesture:
 
     cycle_duration = 3.9  # s, one pick and lay
 
-    def __init__(self, env, withdraw_at: float | None = None, carry_beyond: float = 0.12, carry_height: float = 0.12,
+    def __init__(self, env, withdraw_at: float | None = None, carry_height: float = 0.12,
                  good_enough: float = 0.85, resume_below: float = 0.8, press: bool = False, press_beyond: float = 0.02,
-                 press_height: float = 0.025, sideways: bool = False):
+                 press_height: float = 0.025, rise: float = 0.1, directions: int = 16,
+                 carry_distances: tuple[float, ...] = (0.05, 0.08, 0.11, 0.14), clearance_weight: float = 0.5,
+                 clearance_cap: float = 0.08, distance_weight: float = 0.5, uphill_weight: float = 2.0):
         physics = env.physics
         self.control_timestep = env.control_timestep()
         # s: then the tools leave, whatever remains (default: 6 s before the episode's time limit)
@@ -62,8 +67,16 @@ class ClearingGesture:
         # the retractor presses each laid loop down, press_beyond (m) past where the grasper let it
         # go, its paddle press_height (m) above the wall, so that it does not slide back
         self.press, self.press_beyond, self.press_height = press, press_beyond, press_height
-        self.sideways = sideways  # carry each loop across the bowel's direction, not to the nearest edge
-        self.carry_beyond = carry_beyond  # m beyond the target's edge where a picked loop is laid
+        self.rise = rise  # m above the wall the open jaws rise to, straight up, after a release (0: no rise)
+        # where to lay each loop: `directions` around the pick, `carry_distances` (m) from it; the
+        # score's weights: clearance (per its cap, m), carry length (per m), climb (per m x sin tilt)
+        self.directions, self.carry_distances = directions, tuple(carry_distances)
+        self.clearance_weight, self.clearance_cap = clearance_weight, clearance_cap
+        self.distance_weight, self.uphill_weight = distance_weight, uphill_weight
+        # a carried point stays within the shortest mesentery of its root (anatomy: the root line
+        # is the scene's, the depth the least of the tasks' range)
+        self.mesentery_reach = scene.MESENTERY_LENGTH[0]
+        self.root_line = scene.mesentery_root_line()
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back (carried 4, 6 and 8 cm past the edge, 9 cm cleared the target every
         # time, 11 cm in one of three, 13 cm never)
@@ -81,6 +94,7 @@ class ClearingGesture:
         u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
         x, y = np.meshgrid(self.centre[0] + u * self.half[0], self.centre[1] + u * self.half[1])
         self.cells = np.stack([x.ravel(), y.ravel()], axis=1)  # the reward's sampling points, coverage order
+        self.scored = np.ones(len(self.cells), dtype=bool)  # the cells a carry is scored on
         self.gravity = observation[5:8].copy()
 
     def _reset(self) -> None:
@@ -108,16 +122,13 @@ class ClearingGesture:
         if self.time + self.cycle_duration > self.withdraw_at or not over.any() or uncovered >= self.good_enough:
             self._plan_withdraw()
             return
-        index = np.flatnonzero(over)[np.argmax(axis[over, 2])]  # the top loop first
+        index, drop_xy, side = self._choose(axis, over)
         pick = axis[index]
-        side = self._exit_side(axis, index)
-        drop_xy = pick[:2] + side * (self._exit_distance(pick[:2], side) + self.carry_beyond)
-        drop_xy = np.clip(drop_xy, [-0.12, -0.10], [0.12, 0.10])
         above = np.array([pick[0], pick[1], pick[2] + 0.04])
         grip = np.array([pick[0], pick[1], pick[2] - 0.3 * self.radius])
         lifted = np.array([pick[0], pick[1], self.carry_height])
         carried = np.array([drop_xy[0], drop_xy[1], self.carry_height])
-        lowered = np.array([drop_xy[0], drop_xy[1], 0.045])
+        lowered = np.array([drop_xy[0], drop_xy[1], LAY_HEIGHT])
         g, r = "grasper", "retractor"
         hold_r = self._hold(r)
         self.phases += [
@@ -143,22 +154,63 @@ class ClearingGesture:
             hold_r = self._hold(r)
         self.phases.append(
             Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
+        if self.rise:
+            self.phases.append(Phase("rise", 0.5, self._move(
+                g, self.coordinates(g, np.append(drop_xy, self.rise), JAW_OPEN_DEG), 0.45), self._hold(r)))
         self.cycles += 1
 
+    def _choose(self, axis: np.ndarray, over: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+        """The axis point to pick (index), where to lay it (m, xy) and the direction it goes (unit,
+        xy): of the exposed points over the covered cells (no other loop on them) and the drops
+        around each (`directions` x `carry_distances`, inside the cavity, within the grasper's
+        reach), the best by the taut-rope prediction (viscera.tasks.carry): the uncovered
+        fraction it leaves, plus a bonus for laying the moved rope clear of the target (up to
+        `clearance_cap`: a loop laid beside the hole it left rolls back in), minus the carry's
+        length and its climb against the table's tilt."""
+        candidates = [int(i) for i in np.flatnonzero(over) if self._exposed(axis, i)] or \
+            [int(np.flatnonzero(over)[np.argmax(axis[over, 2])])]
+        downhill = np.asarray(self.gravity[:2]) / np.linalg.norm(self.gravity)  # sin(tilt) along the slope
+        roots = carry.mesentery_roots(self.root_line, len(axis))
+        angles = np.arange(self.directions) * 2.0 * np.pi / self.directions
+        best, choice = -np.inf, None
+        for index in candidates:
+            pick = axis[index, :2]
+            for direction in np.column_stack([np.cos(angles), np.sin(angles)]):
+                for distance in self.carry_distances:
+                    drop = np.clip(pick + direction * distance, CAVITY_LOW, CAVITY_HIGH)
+                    if not shaft_within_reach(self.tools.trocar["grasper"], np.append(drop, LAY_HEIGHT)):
+                        continue
+                    points = carry.carried(axis, index, drop, roots, self.mesentery_reach)
+                    if points is None:
+                        continue
+                    moved = np.any(points != axis[:, :2], axis=1)
+                    score = (1.0 - float(np.mean(carry.covered(points, self.cells[self.scored], self.radius)))
+                             + self.clearance_weight * min(carry.clearance(points[moved], self.centre, self.half),
+                                                           self.clearance_cap) / self.clearance_cap
+                             - self.distance_weight * float(np.linalg.norm(drop - pick))
+                             - self.uphill_weight * max(0.0, -float((drop - pick) @ downhill)))
+                    if score > best:
+                        best, choice = score, (index, drop, (drop - pick) / max(float(np.linalg.norm(drop - pick)),
+                                                                               1e-9))
+        if choice is None:  # nothing feasible: the top loop, through the target's nearest edge
+            index = candidates[int(np.argmax(axis[candidates, 2]))]
+            side = self._exit_side(axis, index)
+            drop = axis[index, :2] + side * (self._exit_distance(axis[index, :2], side) + self.clearance_cap)
+            return index, np.clip(drop, CAVITY_LOW, CAVITY_HIGH), side
+        return choice
+
+    def _exposed(self, axis: np.ndarray, index: int) -> bool:
+        """No other stretch of the bowel lies on axis point `index` (its jaws would take that one)."""
+        others = np.abs(np.arange(len(axis)) - index) > 2
+        near = np.linalg.norm(axis[:, :2] - axis[index, :2], axis=1) < 1.5 * self.radius
+        return not np.any(others & near & (axis[:, 2] > axis[index, 2] + self.radius))
+
     def _exit_side(self, axis: np.ndarray, index: int) -> np.ndarray:
-        """The direction (unit, xy) to carry the loop at axis point `index` off the target. Sideways
-        (the default): across the bowel there, the shorter way out of the two, never uphill; a rope
-        pulled along itself would only slide through. Else out through the nearest edge."""
-        pick = axis[index, :2]
-        tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
-        if self.sideways and np.linalg.norm(tangent) > 1e-6:  # else (a vertical stretch) the nearest edge
-            tangent = tangent / np.linalg.norm(tangent)
-            normals = np.array([[-tangent[1], tangent[0]], [tangent[1], -tangent[0]]])
-            margins = np.array([self._exit_distance(pick, n) for n in normals])
-        else:
-            offset = pick - self.centre
-            margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
-            normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+        """The direction (unit, xy) out of the target through its nearest edge from axis point
+        `index`, never uphill (the fallback when no carry is feasible)."""
+        offset = axis[index, :2] - self.centre
+        margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
+        normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
         uphill = normals @ np.asarray(self.gravity[:2]) < -0.05 * np.linalg.norm(self.gravity)
         if uphill.all():
             uphill[:] = False
@@ -298,8 +350,7 @@ class RetractReach(ClearingGesture):
         self.press_force = press_force  # N: the retractor presses when its sensor reads this
         self.push_force = push_force  # N: the grasper pushes its way through loops above this
         self.reach_height = reach_height  # m: the tip's goal above the target's centre
-        kwargs = dict(dict(good_enough=1.0, resume_below=0.0, press=True, sideways=True, carry_beyond=0.06,
-                           carry_height=0.07), **kwargs)
+        kwargs = dict(dict(good_enough=1.0, resume_below=0.0, press=True, carry_height=0.07), **kwargs)
         super().__init__(env, **kwargs)
 
     def target(self, observation: np.ndarray) -> None:
@@ -307,6 +358,7 @@ class RetractReach(ClearingGesture):
         distance = np.linalg.norm(self.cells - self.centre, axis=1)
         self.in_spot = distance <= self.spot
         self.at_centre = distance <= self.centre_radius
+        self.scored = self.in_spot
         self.half = np.array([self.spot, self.spot])  # loops leave the spot, not the whole target
 
     def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:

@@ -1,0 +1,74 @@
+"""Where a carried loop goes: the taut-rope prediction the scripted gestures plan with.
+
+Carrying one point of the bowel drags its neighbours along. On each side of the carried point
+the rope is pulled taut back to the first point whose length of rope to it reaches the straight
+distance to where it is carried (from there on, the rope has slack enough and stays); the points
+in between lie on that straight leg, at their share of its length. The prediction is horizontal
+(x, y): coverage of the posterior wall is.
+
+A carry the tissue would pull back is refused (None): one that needs more rope than there is to
+a pinned end (the rope would stretch), or one that takes a point farther from its mesentery
+root than the shortest mesentery reaches (the tether would stretch). Measured on clear_area,
+before this refusal the grasped point itself was what came back over the target after most
+releases that failed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None, reach: float = np.inf,
+            pinned: bool = True) -> np.ndarray | None:
+    """The axis points (m, (n, 2), x y) after axis point `index` of `axis` (m, (n, 3), in order
+    along the bowel) is carried to `drop` (m, x y) and laid there; None if the carry would
+    stretch the bowel to a `pinned` end, or take a moved point farther than `reach` (m) from its
+    mesentery root `roots` (m, (n, 3), one per axis point) and farther than it already is."""
+    drop = np.asarray(drop, dtype=float)
+    points = axis[:, :2].copy()
+    points[index] = drop
+    segment = np.linalg.norm(np.diff(axis, axis=0), axis=1)  # m of rope between neighbours
+    count = len(axis)
+    for step in (-1, 1):
+        lengths, chain, k = [0.0], [index], index
+        while 0 <= k + step < count:
+            k += step
+            lengths.append(lengths[-1] + segment[min(k, k - step)])
+            chain.append(k)
+            if lengths[-1] >= np.linalg.norm(drop - axis[k, :2]):
+                break
+        else:  # the rope ran out at the bowel's end without slack
+            if pinned and lengths[-1] < np.linalg.norm(drop - axis[chain[-1], :2]):
+                return None
+        anchor, total = axis[chain[-1], :2], lengths[-1]
+        for length, k in zip(lengths[1:-1], chain[1:-1]):
+            points[k] = drop + (length / total) * (anchor - drop)
+    if roots is not None and np.isfinite(reach):
+        before = np.linalg.norm(axis - roots, axis=1)
+        after = np.linalg.norm(np.column_stack([points, axis[:, 2]]) - roots, axis=1)
+        if np.any(after > np.maximum(before, reach) + 1e-9):
+            return None
+    return points
+
+
+def covered(points: np.ndarray, cells: np.ndarray, radius: float, refine: int = 4) -> np.ndarray:
+    """Which `cells` (m, (m, 2)) a tube of `radius` (m) along `points` (m, (n, 2), in order)
+    lies over; the polyline is sampled `refine` times per segment."""
+    fractions = np.arange(refine) / refine
+    fine = np.concatenate([points[:-1] + f * (points[1:] - points[:-1]) for f in fractions] + [points[-1:]])
+    squared = ((cells[:, None, :] - fine[None, :, :]) ** 2).sum(axis=-1)
+    return squared.min(axis=1) <= radius ** 2
+
+
+def clearance(points: np.ndarray, centre, half) -> float:
+    """The least horizontal distance (m) from `points` (m, (n, 2)) to the rectangle of `centre`
+    and half sizes `half` (m); 0 for a point inside it."""
+    outside = np.maximum(np.abs(points - np.asarray(centre)) - np.asarray(half), 0.0)
+    return float(np.min(np.hypot(outside[:, 0], outside[:, 1])))
+
+
+def mesentery_roots(root_line: np.ndarray, count: int) -> np.ndarray:
+    """Where each of `count` evenly spaced axis points is tethered (m, (count, 3)): the same
+    fraction along the mesentery's root line (m, (2, 3): from, to) as along the bowel."""
+    fractions = np.linspace(0.0, 1.0, count)[:, None]
+    return root_line[0] + fractions * (root_line[1] - root_line[0])
