@@ -7,7 +7,7 @@ nothing, over seeds, with the wall time per episode; written to docs/tasks/rates
 The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
 and doing nothing over 20 (two runs, merged: random 90 s episodes are slow).
 
-The seeds start at 1000 by default: the policies were tuned on seeds below 100, so these are seeds
+The seeds start at 1000 by default: the policies were tuned on seeds below 200, so these are seeds
 they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
 control step (seeded by the episode's seed); doing nothing sends zeros (every tool at its rest).
 Episodes run in worker processes, one per core.

@@ -120,7 +120,16 @@ def test_doing_nothing_never_succeeds():
         assert table["nothing"]["success_rate"] == 0.0, (task, table)
 
 
-@pytest.mark.parametrize("name, seed", [("grasp_lift", 0), ("run_the_bowel", 0)])
+def test_scripted_policies_generalise():
+    """Each task's scripted policy on 5 seeds it was not tuned on (tuning used seeds below 200):
+    at least 4 successes each (the committed 50-seed rates, 84 to 100 %, are in
+    docs/tasks/rates.json)."""
+    for task, table in _rates("scripted", range(2000, 2005)).items():
+        assert table["scripted"]["success_rate"] >= 0.8, (task, table)
+
+
+@pytest.mark.parametrize("name, seed", [("grasp_lift", 0), ("run_the_bowel", 0), ("clear_area", 0),
+                                        ("retract_reach", 0)])
 def test_scripted_policies_succeed(name, seed):
     """The scripted policies, closed loop from the observations, on a seed each."""
     env = viscera.tasks.load(name, seed=seed)

@@ -56,7 +56,10 @@ def covered(points: np.ndarray, cells: np.ndarray, radius: float, refine: int = 
     lies over; the polyline is sampled `refine` times per segment."""
     fractions = np.arange(refine) / refine
     fine = np.concatenate([points[:-1] + f * (points[1:] - points[:-1]) for f in fractions] + [points[-1:]])
-    squared = ((cells[:, None, :] - fine[None, :, :]) ** 2).sum(axis=-1)
+    near = fine[np.all((fine >= cells.min(axis=0) - radius) & (fine <= cells.max(axis=0) + radius), axis=1)]
+    if not len(near):  # the rest cannot cover
+        return np.zeros(len(cells), dtype=bool)
+    squared = ((cells[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
     return squared.min(axis=1) <= radius ** 2
 
 
