@@ -1,6 +1,6 @@
 """The pages' tables of measured figures, generated from the results JSON, never copied by hand.
 
-    python docs/tables.py            # rewrite every generated table in docs/*.md
+    python docs/tables.py            # rewrite every generated table in docs/*.md and README.md
     python docs/tables.py --check    # exit 1 if a page differs from its JSON (tests/python/test_docs.py)
 
 A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
@@ -149,6 +149,17 @@ def task_rates() -> str:
                   "scripted: median wall and simulated time per episode, env steps/s"], rows)
 
 
+def task_success() -> str:
+    """The README's summary of docs/tasks/rates.json: success rates only."""
+    data = _json("tasks/rates.json")
+    seeds = data["seeds"]
+    rows = [[f"`{task}`"] + [f"{table[p]['success_rate']:.0%}" for p in ("scripted", "random", "nothing")]
+            for task, table in data["rates"].items()]
+    return _rows(["task", f"scripted policy succeeds (seeds {seeds['scripted'][0]} to {seeds['scripted'][1]}, "
+                          "not tuned on)", f"uniform random actions ({seeds['random'][1] - seeds['random'][0] + 1} seeds)",
+                  f"doing nothing ({seeds['nothing'][1] - seeds['nothing'][0] + 1} seeds)"], rows)
+
+
 def task_throughput() -> str:
     """From docs/scale/tasks.json (python python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json)."""
     data = _json("scale/tasks.json")
@@ -187,7 +198,7 @@ def render(text: str) -> str:
 
 def main(argv: list[str]) -> int:
     stale = []
-    for page in sorted(DOCS.rglob("*.md")):
+    for page in sorted(DOCS.rglob("*.md")) + [DOCS.parent / "README.md"]:
         text = page.read_text()
         new = render(text)
         if new != text:
