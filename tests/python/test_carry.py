@@ -105,3 +105,13 @@ def test_the_roots_lie_along_the_root_line_in_the_bowels_order():
     line = np.array([[-0.08, 0.08, 0.0], [0.08, -0.08, 0.0]])
     roots = carry.mesentery_roots(line, 5)
     np.testing.assert_allclose(roots[[0, 2, 4]], [line[0], line.mean(axis=0), line[1]])
+
+
+def test_a_finer_axis_is_resampled_evenly_along_its_length():
+    """The planner's resampling keeps the ends and spaces the points evenly along the polyline,
+    whatever the spacing it was given."""
+    corner = np.array([[0.0, 0.0, 0.01], [0.03, 0.0, 0.01], [0.3, 0.0, 0.01], [0.3, 0.3, 0.01]])
+    points = carry.resampled(corner, 7)  # 0.6 m of polyline: 0.1 m apart
+    np.testing.assert_allclose(points[[0, -1]], corner[[0, -1]])
+    np.testing.assert_allclose(points[:, 0], [0.0, 0.1, 0.2, 0.3, 0.3, 0.3, 0.3], atol=1e-12)
+    np.testing.assert_allclose(points[:, 1], [0.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3], atol=1e-12)

@@ -75,3 +75,10 @@ def mesentery_roots(root_line: np.ndarray, count: int) -> np.ndarray:
     fraction along the mesentery's root line (m, (2, 3): from, to) as along the bowel."""
     fractions = np.linspace(0.0, 1.0, count)[:, None]
     return root_line[0] + fractions * (root_line[1] - root_line[0])
+
+
+def resampled(axis: np.ndarray, count: int) -> np.ndarray:
+    """`axis` (m, (n, 3), in order) resampled to `count` points evenly spaced along its length."""
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(axis, axis=0), axis=1))])
+    s = np.linspace(0.0, arc[-1], count)
+    return np.column_stack([np.interp(s, arc, axis[:, c]) for c in range(axis.shape[1])])

@@ -51,6 +51,9 @@ from viscera.trajectory import COORDINATES, ToolTrajectory
 TOOLS = ("grasper", "retractor")
 CAVITY_LOW, CAVITY_HIGH = np.array([-0.12, -0.10]), np.array([0.12, 0.10])  # m: where loops are laid, x y
 LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
+# axis points a carry is planned on (3 cm apart on 3 m): a finer observation is resampled to
+# them, since a plan costs 34 ms on 100 points and 1.8 s on 1000
+PLAN_POINTS = 100
 
 
 @dataclasses.dataclass
@@ -131,6 +134,8 @@ class ClearingGesture:
     def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
         """Queue the phases of the next cycle from the axis points (m, (k, 3)) and the target's
         coverage grid."""
+        if len(axis) > PLAN_POINTS:
+            axis = carry.resampled(axis, PLAN_POINTS)
         over = self._over_covered_cells(axis, coverage)
         uncovered = 1.0 - float(np.mean(np.asarray(coverage) > 0.5))
         if self.time + self.cycle_duration > self.withdraw_at or not over.any() or uncovered >= self.good_enough:
