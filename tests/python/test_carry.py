@@ -41,16 +41,16 @@ def test_a_taut_rope_pinned_at_its_ends_cannot_be_carried_sideways():
     assert carry.carried(axis, 10, axis[10, :2] + (0.0, 0.05)) is None
 
 
-def test_a_free_rope_follows_on_straight_legs_to_its_ends():
-    """Unpinned, the whole straight rope follows: every point on the leg from the drop to its
-    end, at its share of the rope's length from the carried point."""
+def test_rope_that_rises_and_falls_is_rope_too():
+    """Rope is measured along the axis in 3-D: a rope straight in plan but rising and falling
+    2 cm between points (3.6 cm of rope per 3 cm in plan) has the slack for a 5 cm sideways
+    carry, taken up to the first points whose rope reaches (j >= 5 / 2.0, the third on each side)."""
     axis = straight()
-    drop = axis[10, :2] + (0.0, 0.05)
-    points = carry.carried(axis, 10, drop, pinned=False)
-    for end, indices in ((0, range(0, 10)), (20, range(11, 21))):
-        for k in indices:
-            share = abs(k - 10) / 10.0
-            np.testing.assert_allclose(points[k], drop + share * (axis[end, :2] - drop), atol=1e-12)
+    axis[::2, 2] += 0.02
+    points = carry.carried(axis, 10, axis[10, :2] + (0.0, 0.05))
+    assert points is not None
+    moved = np.flatnonzero(np.any(points != axis[:, :2], axis=1))
+    np.testing.assert_array_equal(moved, np.arange(8, 13))  # 10 and two on each side; 7 and 13 anchor
 
 
 def test_a_carry_moves_only_the_rope_it_needs_and_never_stretches_it():
@@ -88,6 +88,16 @@ def test_the_mesentery_refuses_a_carry_away_from_its_root_and_allows_one_towards
     assert away is None
     assert towards is not None
     assert carry.carried(axis, index, axis[index, :2] + (0.0, 0.06), roots, np.inf) is not None
+
+
+def test_a_point_already_beyond_the_mesentery_may_move_but_not_farther():
+    """Points the settled bowel already holds beyond the reach (the tasks' tissue draws
+    mesenteries up to 21 cm; the planner assumes 15) may be carried towards their roots, not away."""
+    axis = serpentine()
+    roots = np.column_stack([axis[:, 0], np.full(len(axis), -0.20), np.zeros(len(axis))])  # every point 16 to 24 cm off
+    assert np.linalg.norm(axis - roots, axis=1).min() > 0.15
+    assert carry.carried(axis, 30, axis[30, :2] - (0.0, 0.03), roots, 0.15) is not None
+    assert carry.carried(axis, 30, axis[30, :2] + (0.0, 0.03), roots, 0.15) is None
 
 
 def test_coverage_and_clearance_by_distance():

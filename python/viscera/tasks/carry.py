@@ -18,12 +18,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None, reach: float = np.inf,
-            pinned: bool = True) -> np.ndarray | None:
+def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None,
+            reach: float = np.inf) -> np.ndarray | None:
     """The axis points (m, (n, 2), x y) after axis point `index` of `axis` (m, (n, 3), in order
-    along the bowel) is carried to `drop` (m, x y) and laid there; None if the carry would
-    stretch the bowel to a `pinned` end, or take a moved point farther than `reach` (m) from its
-    mesentery root `roots` (m, (n, 3), one per axis point) and farther than it already is."""
+    along the bowel, its ends pinned) is carried to `drop` (m, x y) and laid there; None if the
+    carry would stretch the bowel to an end, or take a moved point farther than `reach` (m) from
+    its mesentery root `roots` (m, (n, 3), one per axis point) and farther than it already is.
+    The rope's length is the sum of the chords between axis points: observe the axis densely
+    enough (the tasks' 100 points are 3 cm apart) or the prediction sees less rope than there is."""
     drop = np.asarray(drop, dtype=float)
     points = axis[:, :2].copy()
     points[index] = drop
@@ -37,8 +39,8 @@ def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None,
             chain.append(k)
             if lengths[-1] >= np.linalg.norm(drop - axis[k, :2]):
                 break
-        else:  # the rope ran out at the bowel's end without slack
-            if pinned and lengths[-1] < np.linalg.norm(drop - axis[chain[-1], :2]):
+        else:  # the rope ran out at the bowel's pinned end without slack
+            if lengths[-1] < np.linalg.norm(drop - axis[chain[-1], :2]):
                 return None
         anchor, total = axis[chain[-1], :2], lengths[-1]
         for length, k in zip(lengths[1:-1], chain[1:-1]):
@@ -65,7 +67,9 @@ def covered(points: np.ndarray, cells: np.ndarray, radius: float, refine: int = 
 
 def clearance(points: np.ndarray, centre, half) -> float:
     """The least horizontal distance (m) from `points` (m, (n, 2)) to the rectangle of `centre`
-    and half sizes `half` (m); 0 for a point inside it."""
+    and half sizes `half` (m); 0 for a point inside it, infinite for no points."""
+    if not len(points):
+        return float("inf")
     outside = np.maximum(np.abs(points - np.asarray(centre)) - np.asarray(half), 0.0)
     return float(np.min(np.hypot(outside[:, 0], outside[:, 1])))
 
