@@ -84,12 +84,7 @@ class Physics(dm_mujoco.Physics):
             return self._coverage.copy()
         target = self.target_points()[:, :2] if points is None else points
         axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)[:, :2]
-        low, high = target.min(axis=0) - gut.radius, target.max(axis=0) + gut.radius
-        near = axis[np.all((axis >= low) & (axis <= high), axis=1)]  # the rest cannot cover
-        covered = np.zeros(len(target))
-        if len(near):
-            squared = ((target[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
-            covered = (squared.min(axis=1) <= gut.radius ** 2).astype(float)
+        covered = cells_under_tube(target, axis, gut.radius).astype(float)
         if points is None:
             self._coverage_key, self._coverage = key, covered
         return covered.copy()
@@ -182,6 +177,17 @@ class Physics(dm_mujoco.Physics):
             if np.all(np.abs(point[:2] - centre[:2]) <= half) and point[2] - centre[2] < CLEAR_HEIGHT:
                 return False
         return True
+
+
+def cells_under_tube(cells: np.ndarray, axis: np.ndarray, radius: float) -> np.ndarray:
+    """Which `cells` (m, (m, 2)) a tube of `radius` (m) lies over: an `axis` point (m, (n, 2))
+    within the radius of the cell in the wall's plane."""
+    low, high = cells.min(axis=0) - radius, cells.max(axis=0) + radius
+    near = axis[np.all((axis >= low) & (axis <= high), axis=1)]  # the rest cannot cover
+    if not len(near):
+        return np.zeros(len(cells), dtype=bool)
+    squared = ((cells[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
+    return squared.min(axis=1) <= radius ** 2
 
 
 class BowelTask(base.Task):

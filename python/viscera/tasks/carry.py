@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from viscera.tasks.base import cells_under_tube
+
 
 def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None,
             reach: float = np.inf) -> np.ndarray | None:
@@ -58,11 +60,7 @@ def covered(points: np.ndarray, cells: np.ndarray, radius: float, refine: int = 
     lies over; the polyline is sampled `refine` times per segment."""
     fractions = np.arange(refine) / refine
     fine = np.concatenate([points[:-1] + f * (points[1:] - points[:-1]) for f in fractions] + [points[-1:]])
-    near = fine[np.all((fine >= cells.min(axis=0) - radius) & (fine <= cells.max(axis=0) + radius), axis=1)]
-    if not len(near):  # the rest cannot cover
-        return np.zeros(len(cells), dtype=bool)
-    squared = ((cells[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
-    return squared.min(axis=1) <= radius ** 2
+    return cells_under_tube(cells, fine, radius)  # as the task's reward counts it
 
 
 def clearance(points: np.ndarray, centre, half) -> float:
