@@ -34,6 +34,13 @@ def checked_integer(name: str, value, minimum: int) -> int:
     return int(value)
 
 
+def checked_bool(name: str, value) -> bool:
+    """`value` as a bool, refused by name unless it is True or False (Python's or numpy's)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} = {value!r}: must be True or False")
+    return bool(value)
+
+
 def camera_id(model: mujoco.MjModel, camera: int | str) -> int:
     """The id of the model's camera `camera`: a name, an id, or an id written as digits (a name wins).
 

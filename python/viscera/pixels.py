@@ -286,15 +286,11 @@ class Camera:
         mujoco.mjv_updateScene(model, data, self._option, None, self._mjv_camera, mujoco.mjtCatBit.mjCAT_ALL, scene)
         if self._lights is None:
             return
-        kept = 0
-        for i in range(scene.nlight):  # the headlight only, without its diffuse and specular parts
-            light = scene.lights[i]
-            if light.headlight:
-                light.diffuse[:] = 0.0
-                light.specular[:] = 0.0
-                if kept != i:
-                    _copy_light(scene.lights[kept], light)
-                kept += 1
+        # keep the headlight only (mjv_makeLights puts it first), without its diffuse and specular parts
+        kept = int(scene.nlight > 0 and bool(scene.lights[0].headlight))
+        if kept:
+            scene.lights[0].diffuse[:] = 0.0
+            scene.lights[0].specular[:] = 0.0
         for i in self._lights:  # the camera's own, from the model and this state, not the model's on/off
             if kept >= len(scene.lights):
                 break
@@ -354,14 +350,6 @@ def _model_light(to: mujoco.MjvLight, model: mujoco.MjModel, data: mujoco.MjData
     to.range = float(model.light_range[light])
     to.type, to.texid = int(model.light_type[light]), int(model.light_texid[light])
     to.castshadow, to.headlight, to.id = 0, 0, light
-
-
-def _copy_light(to: mujoco.MjvLight, source: mujoco.MjvLight) -> None:
-    for field in ("ambient", "attenuation", "diffuse", "dir", "pos", "specular"):
-        getattr(to, field)[:] = getattr(source, field)
-    for field in ("bulbradius", "castshadow", "cutoff", "exponent", "headlight", "id", "intensity", "range",
-                  "softness", "texid", "type"):
-        setattr(to, field, getattr(source, field))
 
 
 def _tool_names(model: mujoco.MjModel) -> list[str]:

@@ -48,7 +48,7 @@ from dm_env import specs
 
 import viscera.tasks
 from viscera.scale import observations
-from viscera.checks import finite_array
+from viscera.checks import checked_bool, finite_array
 from viscera.pixels import LABELS
 
 
@@ -79,8 +79,7 @@ class TaskEnv(gymnasium.Env):
                  normalize_actions: bool = True, pixels_only: bool = False, **task_kwargs):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
-        if not isinstance(pixels_only, (bool, np.bool_)):
-            raise ValueError(f"pixels_only = {pixels_only!r}: must be True or False")
+        pixels_only = checked_bool("pixels_only", pixels_only)
         pixels = bool(task_kwargs.get("pixels", False))  # a value not True or False: refused by tasks.load
         if pixels_only and not pixels:
             raise ValueError("pixels_only = True needs pixels = True")

@@ -13,6 +13,7 @@ import importlib
 
 import numpy as np
 
+from viscera.checks import checked_bool
 from viscera.task_registry import TASKS
 
 ALL = tuple(TASKS)
@@ -28,8 +29,7 @@ def load(name: str, seed: int | None = None, pixels: bool = False, width: int = 
     intestine is then drawn as 160 capsules: viscera.tasks.base.PIXEL_CAPSULES)."""
     if name not in TASKS:
         raise KeyError(f"unknown task {name!r}; known: {ALL}")
-    if not isinstance(pixels, (bool, np.bool_)):
-        raise ValueError(f"pixels = {pixels!r}: must be True or False")
+    pixels = checked_bool("pixels", pixels)
     from viscera.pixels import Camera
     observer = Camera(width, height, camera)  # refuses bad sizes before loading, pixels on or off
     if not pixels:

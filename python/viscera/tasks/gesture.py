@@ -91,9 +91,9 @@ class ClearingGesture:
         self.clearance_weight, self.clearance_cap = clearance_weight, clearance_cap
         self.distance_weight, self.uphill_weight = distance_weight, uphill_weight
         # a carried point stays within the shortest mesentery of its root (anatomy: the root line
-        # is the scene's, the depth the least of the tasks' range)
+        # is the scene's, m, from and to; the depth the least of the tasks' range)
         self.mesentery_reach = scene.MESENTERY_LENGTH[0]
-        self.root_line = scene.mesentery_root_line()
+        self.root_line = np.array(physics.intestine().config["mesentery_root"].split(), dtype=float).reshape(2, 3)
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back (measured with the first gesture, on the shipped scene: lifted 4, 6
         # and 8 cm, 9 cm cleared the target every time, 11 cm in one of three, 13 cm never)

@@ -108,15 +108,6 @@ def draw_episode(random: np.random.RandomState, length: float = 3.0) -> Episode:
         tilt_deg=float(random.uniform(*TILT_DEG)), tilt_azimuth_deg=float(random.uniform(0.0, 360.0)))
 
 
-def mesentery_root_line() -> np.ndarray:
-    """The mesentery's root on the posterior wall (m, (2, 3): from, to), the abdomen's
-    `mesentery_root`: anatomy, the same in every episode."""
-    root = ElementTree.fromstring(scene_file(ABDOMEN).read_text())
-    value = next(c.get("value") for c in root.iterfind("extension/plugin/instance/config")
-                 if c.get("key") == "mesentery_root")
-    return np.array([float(x) for x in value.split()]).reshape(2, 3)
-
-
 def _rename(element: ElementTree.Element, old: str, new: str) -> None:
     """Every name-like attribute of `element` and below that starts with `old`, renamed to `new`."""
     for node in element.iter():
