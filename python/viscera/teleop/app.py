@@ -1,0 +1,150 @@
+"""`python -m viscera teleop TASK`: a task in MuJoCo's viewer, seen through the laparoscope, its
+tools driven by a person, with an overlay (the bindings, the active tool, each tool's force,
+the time, falling behind real time, and a warning while a tissue threshold is crossed); the
+score is printed when the episode ends (success, failure, time limit, or the window closed).
+
+The viewer's mouse perturbation is switched off (its forces would not be in the recording,
+which must replay bit for bit), and so are its panels (Tab shows them).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+
+import mujoco
+import numpy as np
+
+from viscera.cli import UserError
+from viscera.teleop import devices
+from viscera.teleop.session import FRAME_S, Session
+
+OVERLAY_FONT = mujoco.mjtFontScale.mjFONTSCALE_150
+
+
+def check_display() -> None:
+    if sys.platform.startswith("linux") and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        raise UserError("teleop needs a display (DISPLAY is not set): run it on a desktop, or under a virtual "
+                        "display such as xvfb-run", status=2)
+
+
+def overlay(session: Session) -> list[tuple]:
+    """The viewer's text boxes: (font, grid position, left column, right column)."""
+    device = session.device
+    snapshot = session.snapshot()
+    keys = device.help_lines() if device is not None else []
+    names, values = ["active tool"], [device.active_tool or "-" if device else "-"]
+    for tool in session.tools:
+        force = float(np.linalg.norm(snapshot.tissue_force[tool.name]))
+        names.append(f"{tool.name} force")
+        values.append(f"{force:5.2f} N" + ("  holding" if snapshot.holding[tool.name] else ""))
+    names += ["time", "behind real time"]
+    values += [f"{session.data.time:5.1f} / {session.time_limit_s:.0f} s",
+               f"{session.ticks_behind} ticks, {session.lost_s:.2f} s lost"]
+    boxes = [(OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(k for k, _ in keys), "\n".join(v for _, v in keys)),
+             (OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPRIGHT, "\n".join(names), "\n".join(values))]
+    warnings = [f"{name}: {np.linalg.norm(snapshot.tissue_force[name]):.1f} N on the tissue, over "
+                f"{session.force_warning_n:g} N" for name, over in snapshot.warning.items() if over]
+    if warnings:
+        boxes.append((OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, "WARNING", "\n".join(warnings)))
+    return boxes
+
+
+def prepare_view(model: mujoco.MjModel) -> None:
+    """The viewer opens through the laparoscope, its light on (a scope lights what it sees), and
+    draws cheaply: no shadows and coarser curved surfaces (software GL draws a frame of the
+    abdomen in about a second with them). Drawing settings only: the physics is the same."""
+    camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
+    model.vis.global_.cameraid = camera if camera >= 0 else (0 if model.ncam else -1)
+    light = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_LIGHT, "laparoscope_light")
+    if light >= 0:
+        model.light_active[light] = 1
+    model.light_castshadow[:] = 0
+    model.vis.quality.numslices, model.vis.quality.numstacks = 12, 6
+
+
+class Display(threading.Thread):
+    """Shows the session in MuJoCo's passive viewer, apart from the simulation's thread: the
+    viewer's calls wait for its render thread (a frame can take a second in software GL), and
+    the simulation must never wait for a frame. Under `lock`, between ticks, it copies the data
+    to the viewer and clears the viewer's perturbation forces (they would not be in the
+    recording, which must replay bit for bit); the overlay's texts go out after."""
+
+    def __init__(self, viewer, session: Session, lock: threading.Lock):
+        super().__init__(name="viscera-teleop-display", daemon=True)
+        self.viewer, self.session, self.lock = viewer, session, lock
+        self.stop = threading.Event()
+        self.frames = 0
+
+    def run(self) -> None:
+        camera = self.session.model.vis.global_.cameraid
+        if camera >= 0:  # the viewer's first frame aligns a free camera: look through the scope after it
+            with self.viewer.lock():
+                self.viewer.cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+                self.viewer.cam.fixedcamid = camera
+        while not self.stop.is_set() and self.viewer.is_running():
+            with self.lock:
+                self.viewer.sync()
+                self.session.data.xfrc_applied[:] = 0.0
+                texts = overlay(self.session)
+            self.viewer.set_texts(texts)  # returns once the viewer has drawn the previous texts
+            self.frames += 1
+            self.stop.wait(FRAME_S)
+
+
+def teleop(task: str, seed: int | None = None, device: str = "keyboard", record: str | None = None,
+           port: int | None = None, time_limit_s: float | None = None) -> dict:
+    """Run one rehearsal episode in MuJoCo's viewer; print the score and the verdict; return the score."""
+    import viscera.tasks
+    if task not in viscera.tasks.ALL:
+        raise UserError(f"unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}", status=2)
+    check_display()
+    try:
+        hardware = devices.make(device, port)
+    except devices.DeviceError as error:
+        raise UserError(str(error), status=2) from None
+    session = None
+    try:
+        session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s)
+        prepare_view(session.model)
+        import mujoco.viewer
+        key_callback = hardware.key if isinstance(hardware, devices.KeyboardDevice) else None
+        lock = threading.Lock()
+        before = set(threading.enumerate())
+        with mujoco.viewer.launch_passive(session.model, session.data, key_callback=key_callback,
+                                          show_left_ui=False, show_right_ui=False) as viewer:
+            display = Display(viewer, session, lock)
+            display.start()
+            print(f"teleop {task} (seed {seed}): the {hardware.name} drives the tools; close the window to stop",
+                  flush=True)
+            try:
+                result = session.run(on_frame=lambda _: viewer.is_running(), lock=lock)
+            finally:
+                display.stop.set()
+                display.join()
+        for thread in set(threading.enumerate()) - before:
+            if "_launch_internal" in thread.name:
+                thread.join()  # the viewer's thread closes its window: exiting before it can crash Mesa
+    finally:
+        if session is not None:
+            session.close()
+        else:
+            hardware.close()
+    if record and result.recording is not None:
+        result.recording.save(record)
+        print(f"recording        {record} ({result.ticks} ticks)")
+    report(result)
+    return result.score or {}
+
+
+def report(result) -> None:
+    """The score's headline figures, then the verdict line."""
+    score = result.score or {}
+    print(f"ended            {result.ended} after {result.simulated_s:.2f} s; behind real time on "
+          f"{result.ticks_behind} of {result.ticks} ticks ({result.lost_s:.2f} s lost)")
+    for tool, values in score.get("tools", {}).items():
+        print(f"{tool:16s} path {values['path_length_m']:.3f} m, angular path {values['angular_path_deg']:.0f} deg, "
+              f"peak force {values['peak_force_n']:.2f} N, idle {values['idle_s']:.1f} s, "
+              f"out of view {values['out_of_view_s']:.1f} s")
+    print(f"success: {'yes' if result.success else 'no'} ({result.ended})", flush=True)

@@ -1,0 +1,226 @@
+"""A person in the loop: a task stepped at wall-clock rate, its tools driven by a device.
+
+    device = viscera.teleop.devices.KeyboardDevice()
+    session = Session("clear_area", seed=0, device=device)
+    result = session.run()            # real time; ends on success, failure or the time limit
+    result.score, result.recording    # viscera.assess's score; the replayable recording
+
+Each control tick (control_timestep_s, 10 ms by default: 5 physics steps of the abdomen) the
+session asks the device for each tool's target, moves the tool's command towards it no faster
+than the scripted trajectories' velocity limits (viscera.trajectory.DEFAULT_MAX_VELOCITY),
+steps the dm_control environment with that command as its action, records the action (so the
+episode replays bit for bit: viscera.recording), samples the score's trace, and hands the
+device a Snapshot of the tools (a haptic device renders forces from it).
+
+The simulation never runs faster than the wall clock. A tick that ends after its wall-clock
+deadline is counted as behind (`ticks_behind`), and the time lost is dropped (`lost_s`), not
+caught up by running faster afterwards.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+import viscera.tasks
+from viscera.teleop.devices import MAX_VELOCITY, Device, Snapshot, ToolInfo
+from viscera.trajectory import COORDINATES
+
+CONTROL_TIMESTEP_S = 0.01   # a device's commands reach the tools at 100 Hz (the physics runs at 500 Hz)
+FRAME_S = 1.0 / 30.0        # the viewer is redrawn at 30 frames per wall second
+TO_SI = np.array([np.pi / 180.0, np.pi / 180.0, 1.0, np.pi / 180.0, np.pi / 180.0])  # user units -> rad, m
+TOOL_FORCE_WARNING_N = 2.0  # fallback when viscera.assess does not give its threshold
+
+
+@dataclasses.dataclass
+class SessionResult:
+    ended: str                  # "success", "failure", "time limit", "duration", "window closed", "interrupted"
+    success: bool
+    simulated_s: float
+    ticks: int
+    ticks_behind: int           # ticks that ended after their wall-clock deadline
+    lost_s: float               # wall time dropped to never run faster than real time (s)
+    recording: object | None    # viscera.recording.Recording
+    score: dict | None          # viscera.assess's score
+
+
+class Session:
+    """A task with its tools handed to `device` (see the module doc)."""
+
+    def __init__(self, task: str, seed: int | None = None, device: Device | None = None,
+                 control_timestep_s: float = CONTROL_TIMESTEP_S, time_limit_s: float | None = None,
+                 record: bool = True):
+        if task not in viscera.tasks.ALL:
+            raise KeyError(f"unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
+        self.task_name, self.seed = task, seed
+        self.env = viscera.tasks.load(task, seed=seed, control_timestep=control_timestep_s, time_limit=time_limit_s)
+        self.time_step = self.env.reset()
+        self.physics = self.env.physics
+        self.model, self.data = self.physics.model.ptr, self.physics.data.ptr
+        self.control_timestep_s = float(self.env.control_timestep())
+        self.time_limit_s = float(self.env.task.TIME_LIMIT_S if time_limit_s is None else time_limit_s)
+        self.device = device
+        self._find_tools()
+        self.command = {tool.name: tool.initial.copy() for tool in self.tools}
+        self.ticks = 0
+        self.ticks_behind = 0
+        self.lost_s = 0.0
+        self.tracer = self.recorder = None
+        try:
+            from viscera import assess
+            self.tracer = assess.Tracer(self.env)
+            self.tracer.sample(self.env)
+            self.force_warning_n = float(getattr(assess, "TOOL_FORCE_THRESHOLD_N", TOOL_FORCE_WARNING_N))
+        except ImportError:  # the score's module is optional to stepping
+            self.force_warning_n = TOOL_FORCE_WARNING_N
+        if record:
+            from viscera.recording import Recorder
+            self.recorder = Recorder(task, seed, f"person:{device.name if device else 'none'}",
+                                     self.control_timestep_s, self.time_limit_s)
+        if device is not None:
+            device.start(self.tools)
+            device.feedback(self.snapshot())
+
+    # -- the tools, in user units (deg, m), COORDINATES order
+    def _find_tools(self) -> None:
+        model = self.model
+        self.tools: list[ToolInfo] = []
+        self._actuators: dict[str, np.ndarray] = {}
+        self._qpos: dict[str, np.ndarray] = {}
+        self._dof: dict[str, np.ndarray] = {}
+        for index, name in enumerate(self.physics.tools()):
+            actuators = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{name}_{c}")
+                                  for c in COORDINATES])
+            present = actuators >= 0
+            lower, upper, kp = np.zeros(5), np.zeros(5), np.zeros(5)
+            for k, a in enumerate(actuators):
+                if a >= 0:
+                    lower[k], upper[k] = model.actuator_ctrlrange[a] / TO_SI[k]
+                    kp[k] = model.actuator_gainprm[a, 0]
+            joints = [model.actuator_trnid[a, 0] if a >= 0 else -1 for a in actuators]
+            self._actuators[name] = actuators
+            self._qpos[name] = np.array([model.jnt_qposadr[j] if j >= 0 else -1 for j in joints])
+            self._dof[name] = np.array([model.jnt_dofadr[j] if j >= 0 else -1 for j in joints])
+            initial = np.where(present, np.array([self.data.ctrl[a] if a >= 0 else 0.0 for a in actuators]) / TO_SI, 0.0)
+            self.tools.append(ToolInfo(name, index, kp, lower, upper, initial, bool(present[4])))
+
+    def _joint_values(self, name: str, source: np.ndarray, addresses: dict[str, np.ndarray]) -> np.ndarray:
+        where = addresses[name]
+        return np.where(where >= 0, source[np.maximum(where, 0)], 0.0) / TO_SI
+
+    def snapshot(self) -> Snapshot:
+        """The tools now (user units; forces in N, world frame)."""
+        sensors = self.physics.named.data.sensordata
+        holding = {}
+        for grasp in self.physics.intestine().grasps(self.data):
+            holding[grasp.site.removesuffix("_tip")] = grasp.holding
+        q, qdot, force, warning = {}, {}, {}, {}
+        for tool in self.tools:
+            q[tool.name] = self._joint_values(tool.name, self.data.qpos, self._qpos)
+            qdot[tool.name] = self._joint_values(tool.name, self.data.qvel, self._dof)
+            force[tool.name] = np.array(sensors[f"{tool.name}_force"][:3], dtype=float)
+            warning[tool.name] = bool(np.linalg.norm(force[tool.name]) > self.force_warning_n)
+        return Snapshot(float(self.data.time), q, qdot, force, {t.name: holding.get(t.name, False) for t in self.tools},
+                        warning)
+
+    def action(self) -> np.ndarray:
+        """The dm_env action of the current commands (rad, m per actuator)."""
+        action = np.zeros(self.model.nu)
+        for tool in self.tools:
+            actuators = self._actuators[tool.name]
+            present = actuators >= 0
+            action[actuators[present]] = (self.command[tool.name] * TO_SI)[present]
+        return action
+
+    def tick(self) -> None:
+        """One control tick: the device's targets, velocity-limited, stepped, recorded, fed back."""
+        dt = self.control_timestep_s
+        targets = self.device.targets(float(self.data.time)) if self.device else {}  # simulated time: rates integrate as the tools move
+        for tool in self.tools:
+            target = targets.get(tool.name)
+            if target is None:
+                continue
+            target = np.asarray(target, dtype=float)
+            if target.shape != (5,) or not np.all(np.isfinite(target)):
+                continue  # a device's bad value never reaches MuJoCo
+            command = self.command[tool.name]
+            command += np.clip(np.clip(target, tool.lower, tool.upper) - command, -MAX_VELOCITY * dt, MAX_VELOCITY * dt)
+        action = self.action()
+        self.time_step = self.env.step(action)
+        self.ticks += 1
+        if self.recorder is not None:
+            self.recorder.append(action)
+        if self.tracer is not None:
+            self.tracer.sample(self.env)
+        if self.device is not None:
+            self.device.feedback(self.snapshot())
+
+    def ended(self) -> str | None:
+        if not self.time_step.last():
+            return None
+        task = self.env.task
+        if task.success(self.physics):
+            return "success"
+        return "failure" if getattr(task, "_failed", False) else "time limit"
+
+    def run(self, duration_s: float | None = None, progress: bool = False,
+            on_frame: Callable[["Session"], bool] | None = None, lock=None) -> SessionResult:
+        """Step in real time until the episode ends (or `duration_s` simulated seconds pass, or
+        `on_frame`, called 30 times a wall second, returns False); then the result, with the
+        recording and score. Each tick holds `lock` (a threading.Lock), if given, so that a
+        display thread reads the data between ticks."""
+        lock = lock if lock is not None else contextlib.nullcontext()
+        dt = self.control_timestep_s
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            bar = tqdm(total=round(self.time_limit_s / dt), unit="tick", desc=self.task_name)
+        start = time.perf_counter()
+        next_frame = start
+        ended = None
+        try:
+            while ended is None:
+                if duration_s is not None and self.data.time >= duration_s - 1e-9:
+                    ended = "duration"
+                    break
+                with lock:
+                    self.tick()
+                if bar is not None:
+                    bar.update(1)
+                ended = self.ended()
+                now = time.perf_counter()
+                lag = now - (start + self.ticks * dt)
+                if lag > 0.0:  # behind real time: count it, drop the lost time, never run faster
+                    self.ticks_behind += 1
+                    self.lost_s += lag
+                    start += lag
+                elif ended is None:
+                    time.sleep(-lag)
+                if on_frame is not None and time.perf_counter() >= next_frame:
+                    next_frame = time.perf_counter() + FRAME_S
+                    if not on_frame(self) and ended is None:
+                        ended = "window closed"
+        except KeyboardInterrupt:
+            ended = "interrupted"
+        finally:
+            if bar is not None:
+                bar.close()
+        return self.result(ended)
+
+    def result(self, ended: str) -> SessionResult:
+        recording = self.recorder.finish(self.env) if self.recorder is not None else None
+        score = None
+        if self.tracer is not None:
+            from viscera import assess
+            score = assess.score(self.tracer.trace)
+        return SessionResult(ended, ended == "success", float(self.data.time), self.ticks, self.ticks_behind,
+                             self.lost_s, recording, score)
+
+    def close(self) -> None:
+        if self.device is not None:
+            self.device.close()
