@@ -42,8 +42,10 @@ def overlay(session: Session) -> list[tuple]:
     names += ["time", "behind real time"]
     values += [f"{session.data.time:5.1f} / {session.time_limit_s:.0f} s",
                f"{session.ticks_behind} ticks, {session.lost_s:.2f} s lost"]
-    boxes = [(OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(k for k, _ in keys), "\n".join(v for _, v in keys)),
-             (OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPRIGHT, "\n".join(names), "\n".join(values))]
+    boxes = [(OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPRIGHT, "\n".join(names), "\n".join(values))]
+    if keys:
+        boxes.append((OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(k for k, _ in keys),
+                      "\n".join(v for _, v in keys)))
     warnings = [f"{name}: {np.linalg.norm(snapshot.tissue_force[name]):.1f} N on the tissue, over "
                 f"{session.force_warning_n:g} N" for name, over in snapshot.warning.items() if over]
     if warnings:
@@ -100,6 +102,8 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
     if task not in viscera.tasks.ALL:
         raise UserError(f"unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}", status=2)
     check_display()
+    # Mesa's software GL (no GPU) would draw on every core; on one, the simulation keeps the other
+    os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
         hardware = devices.make(device, port)
     except devices.DeviceError as error:

@@ -313,6 +313,25 @@ class SpaceMouseDevice(RateDevice):
                 pass
 
 
+class PolicyDevice(Device):
+    """A policy at the controls (a dm_env policy: time step in, action out), for pictures and
+    tests of the person's path: `drive(session, policy)` before the session runs."""
+
+    name = "policy"
+
+    def drive(self, session, policy) -> None:
+        self.session, self.policy = session, policy
+
+    def targets(self, now_s: float) -> dict[str, np.ndarray]:
+        from viscera.teleop.session import TO_SI
+        action = self.policy(self.session.time_step)
+        out = {}
+        for tool in self.tools:
+            actuators = self.session._actuators[tool.name]
+            out[tool.name] = np.where(actuators >= 0, action[np.maximum(actuators, 0)] / TO_SI, 0.0)
+        return out
+
+
 DEVICES = ("keyboard", "gamepad", "spacemouse", "socket")
 
 

@@ -1,0 +1,372 @@
+"""Recordings: an episode of a task as its seed and the command of every control tick, replayed
+bit for bit.
+
+    recording = record("clear_area", seed=3, policy="scripted")   # or a person's: viscera.teleop
+    recording.save("episode.npz")
+    recording = load("episode.npz")
+    result = replay(recording)          # result.final_state_sha256 == recording.final_state_sha256
+
+A recording is one `.npz` file (NumPy's zip; written to a temporary name, then renamed, so an
+interrupted write never leaves a half file under the name) with two arrays:
+- `meta`: UTF-8 JSON: `format` ("viscera-recording"), `version` (1), `task`, `seed`, `policy`
+  ("scripted", "random", "idle" or "person:<device>"), `policy_seed` (random only),
+  `control_timestep_s`, `time_limit_s`, `steps`, `success`, `final_state_sha256`, the
+  `viscera` and `mujoco` versions, `created` (UTC);
+- `actions`: float64 (steps, actuators), the dm_env action of every control tick (rad, m).
+
+The task's seed fixes its episode (the bowel, tissue, tilt and target), so the actions are the
+whole episode: `replay` loads the task with the seed, control period and time limit, steps
+every action, and must end in the same state. `final_state_sha256` is the SHA-256 of the final
+`mjSTATE_FULLPHYSICS` state (float64 bytes), the intestine's plugin state included.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import hashlib
+import json
+import os
+import pathlib
+import tempfile
+import zipfile
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+FORMAT = "viscera-recording"
+VERSION = 1
+POLICIES = ("scripted", "random", "idle")
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be read: the message is one line naming what is wrong."""
+
+
+@dataclasses.dataclass
+class Recording:
+    task: str
+    seed: int | None
+    policy: str
+    control_timestep_s: float
+    time_limit_s: float
+    actions: np.ndarray                  # (steps, actuators) float64, rad and m
+    success: bool = False
+    final_state_sha256: str = ""
+    policy_seed: int | None = None
+    created: str = ""
+    versions: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def steps(self) -> int:
+        return int(len(self.actions))
+
+    def meta(self) -> dict:
+        return {"format": FORMAT, "version": VERSION, "task": self.task, "seed": self.seed, "policy": self.policy,
+                "policy_seed": self.policy_seed, "control_timestep_s": self.control_timestep_s,
+                "time_limit_s": self.time_limit_s, "steps": self.steps, "success": bool(self.success),
+                "final_state_sha256": self.final_state_sha256, "created": self.created, **self.versions}
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the recording to `path` (.npz); never a half file under that name."""
+        path = pathlib.Path(path)
+        meta = np.frombuffer(json.dumps(self.meta()).encode(), dtype=np.uint8)
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
+        try:
+            with os.fdopen(handle, "wb") as file:
+                np.savez_compressed(file, meta=meta, actions=np.asarray(self.actions, dtype=np.float64))
+            os.replace(temporary, path)
+        except BaseException:
+            os.unlink(temporary)
+            raise
+
+
+def _versions() -> dict:
+    from importlib import metadata
+    try:
+        version = metadata.version("viscera")
+    except metadata.PackageNotFoundError:
+        version = "source"
+    return {"viscera": version, "mujoco": mujoco.__version__}
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def load(path: str | os.PathLike) -> Recording:
+    """The recording in `path`; RecordingError (one line) for anything wrong with the file."""
+    import viscera.tasks
+    name = str(path)
+    if not os.path.exists(path):
+        raise RecordingError(f"{name}: no such file")
+    if os.path.isdir(path):
+        raise RecordingError(f"{name}: a folder, not a recording")
+    if not zipfile.is_zipfile(path):
+        raise RecordingError(f"{name}: not a viscera recording (not an .npz file)")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            keys = set(archive.files)
+            if "meta" not in keys:
+                raise RecordingError(f"{name}: not a viscera recording (no 'meta' entry; it has {sorted(keys)})")
+            meta_bytes = archive["meta"]
+            actions = archive["actions"] if "actions" in keys else None
+    except RecordingError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as error:  # truncated, CRC, bad entry
+        raise RecordingError(f"{name}: corrupt or truncated ({_one_line(error)})") from None
+    try:
+        meta = json.loads(bytes(np.asarray(meta_bytes, dtype=np.uint8)).decode())
+    except (ValueError, UnicodeDecodeError, TypeError):
+        raise RecordingError(f"{name}: corrupt: its 'meta' entry is not JSON") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RecordingError(f"{name}: not a viscera recording (format {meta.get('format') if isinstance(meta, dict) else None!r})")
+    version = meta.get("version")
+    if not isinstance(version, int) or version < 1:
+        raise RecordingError(f"{name}: bad format version {version!r}")
+    if version > VERSION:
+        raise RecordingError(f"{name}: format version {version} is newer than this viscera reads ({VERSION}): "
+                             "upgrade viscera")
+    for key in ("task", "seed", "policy", "control_timestep_s", "time_limit_s"):
+        if key not in meta:
+            raise RecordingError(f"{name}: its meta has no {key!r}")
+    if actions is None:
+        raise RecordingError(f"{name}: no 'actions' entry")
+    task = meta["task"]
+    if task not in viscera.tasks.ALL:
+        raise RecordingError(f"{name}: unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
+    seed = meta["seed"]
+    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2 ** 32):
+        raise RecordingError(f"{name}: seed {seed!r} is not an integer from 0 to 2^32 - 1")
+    for key in ("control_timestep_s", "time_limit_s"):
+        value = meta[key]
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value <= 0:
+            raise RecordingError(f"{name}: {key} {value!r} is not a positive number")
+    if actions.dtype != np.float64 or actions.ndim != 2:
+        raise RecordingError(f"{name}: actions must be a 2-D float64 array, got {actions.dtype} {actions.shape}")
+    if not np.all(np.isfinite(actions)):
+        raise RecordingError(f"{name}: actions hold NaN or infinite values")
+    expected = meta.get("steps")
+    if expected is not None and expected != len(actions):
+        raise RecordingError(f"{name}: meta says {expected} steps, the actions hold {len(actions)}")
+    versions = {k: meta[k] for k in ("viscera", "mujoco") if k in meta}
+    return Recording(task, seed, str(meta["policy"]), float(meta["control_timestep_s"]), float(meta["time_limit_s"]),
+                     actions, bool(meta.get("success", False)), str(meta.get("final_state_sha256", "")),
+                     meta.get("policy_seed"), str(meta.get("created", "")), versions)
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+def final_state_sha256(physics) -> str:
+    """SHA-256 (hex) of the mjSTATE_FULLPHYSICS state, as float64 bytes."""
+    model, data = physics.model.ptr, physics.data.ptr
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, kind), dtype=np.float64)
+    mujoco.mj_getState(model, data, state, kind)
+    return hashlib.sha256(state.tobytes()).hexdigest()
+
+
+def load_task(task: str, seed: int | None, control_timestep_s: float | None = None,
+              time_limit_s: float | None = None):
+    import viscera.tasks
+    kwargs = {}
+    if control_timestep_s is not None:
+        kwargs["control_timestep"] = control_timestep_s
+    if time_limit_s is not None:
+        kwargs["time_limit"] = time_limit_s
+    return viscera.tasks.load(task, seed=seed, **kwargs)
+
+
+class Recorder:
+    """Collects a live session's actions (viscera.teleop.session) into a Recording."""
+
+    def __init__(self, task: str, seed: int | None, policy: str, control_timestep_s: float, time_limit_s: float,
+                 policy_seed: int | None = None):
+        self.recording = Recording(task, seed, policy, float(control_timestep_s), float(time_limit_s),
+                                   np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=_versions())
+        self._actions: list[np.ndarray] = []
+
+    def append(self, action) -> None:
+        self._actions.append(np.array(action, dtype=np.float64))
+
+    def finish(self, env) -> Recording:
+        recording = self.recording
+        count = env.physics.model.nu
+        recording.actions = np.array(self._actions, dtype=np.float64).reshape(-1, count)
+        recording.success = bool(env.task.success(env.physics))
+        recording.final_state_sha256 = final_state_sha256(env.physics)
+        return recording
+
+
+def policy_for(env, policy: str, seed: int | None) -> Callable:
+    """The callable (time step -> action) of a policy kind: the task's script, uniform random
+    actions within the action spec (numpy's default_rng(seed)), or idle (the tools held where
+    the episode starts them: withdrawn, jaws open)."""
+    import viscera.tasks
+    if policy == "scripted":
+        return viscera.tasks.scripted_policy(env)
+    spec = env.action_spec()
+    if policy == "random":
+        rng = np.random.default_rng(seed)
+        return lambda time_step: rng.uniform(spec.minimum, spec.maximum)
+    if policy == "idle":
+        hold = np.array(env.physics.data.ctrl, dtype=np.float64)  # reset leaves the settle's withdrawn pose
+        return lambda time_step: hold.copy()
+    raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
+
+
+def record(task: str, seed: int | None, policy: str = "scripted", time_limit_s: float | None = None,
+           control_timestep_s: float | None = None, policy_seed: int | None = None, progress: bool = False,
+           on_step: Callable | None = None) -> Recording:
+    """Run one episode of `task` (seed `seed`) with a policy kind (POLICIES) and record it.
+    `on_step(env, time_step)` is called after the reset and after every step."""
+    if policy not in POLICIES:
+        raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
+    env = load_task(task, seed, control_timestep_s, time_limit_s)
+    time_step = env.reset()
+    if policy == "random" and policy_seed is None:
+        policy_seed = seed
+    act = policy_for(env, policy, policy_seed)
+    recorder = Recorder(task, seed, policy, env.control_timestep(),
+                        time_limit_s if time_limit_s is not None else env.task.TIME_LIMIT_S, policy_seed)
+    if on_step is not None:
+        on_step(env, time_step)
+    bar = _bar(progress, recorder.recording, task)
+    try:
+        while not time_step.last():
+            action = np.asarray(act(time_step), dtype=np.float64)
+            recorder.append(action)
+            time_step = env.step(action)
+            if on_step is not None:
+                on_step(env, time_step)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return recorder.finish(env)
+
+
+def _bar(progress: bool, recording: Recording, task: str):
+    if not progress:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=int(round(recording.time_limit_s / recording.control_timestep_s)), unit="tick", desc=task)
+
+
+@dataclasses.dataclass
+class ReplayResult:
+    final_state_sha256: str
+    success: bool
+    steps: int
+    env: object
+
+    def matches(self, recording: Recording) -> bool:
+        return not recording.final_state_sha256 or self.final_state_sha256 == recording.final_state_sha256
+
+
+def replay(recording: Recording, on_step: Callable | None = None, progress: bool = False) -> ReplayResult:
+    """Step the recording's actions through its task again; `on_step(env, time_step)` after the
+    reset and every step. Stops early if the episode ends before the actions do."""
+    env = load_task(recording.task, recording.seed, recording.control_timestep_s, recording.time_limit_s)
+    time_step = env.reset()
+    expected = env.action_spec().shape
+    if recording.actions.shape[1:] != expected:
+        raise RecordingError(f"actions of {recording.actions.shape[1]} values, the task {recording.task!r} takes "
+                             f"{expected[0]}")
+    if on_step is not None:
+        on_step(env, time_step)
+    steps = 0
+    bar = _bar(progress, recording, recording.task)
+    try:
+        for action in recording.actions:
+            if time_step.last():
+                break
+            time_step = env.step(action)
+            steps += 1
+            if on_step is not None:
+                on_step(env, time_step)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return ReplayResult(final_state_sha256(env.physics), bool(env.task.success(env.physics)), steps, env)
+
+
+SUCCESS_CRITERIA = {  # the verdict line's criterion, from each task's module doc
+    "clear_area": "the target uncovered for 2 s, the tools clear of it and still",
+    "grasp_lift": "the marked band held 5 cm above the posterior wall for 1 s",
+    "run_the_bowel": "30 cm of bowel run hand over hand without letting go",
+    "retract_reach": "the loops held back and the grasper at the target's centre",
+}
+
+
+def verdict(task: str, success: bool) -> str:
+    """The last line of record and replay: success yes or no, against the task's criterion."""
+    return f"success: {'yes' if success else 'no'} ({task}: {SUCCESS_CRITERIA.get(task, 'the task’s goal')})"
+
+
+# -- the motion as scripted trajectories (viscera.trajectory)
+
+TOLERANCE = {"deg": 0.05, "m": 0.00005}  # waypoints simplified within 0.05 deg and 0.05 mm
+
+
+def _simplify(times: np.ndarray, values: np.ndarray, tolerance: float) -> set[int]:
+    """Indices the Ramer-Douglas-Peucker simplification of one coordinate keeps (ends included)."""
+    keep = {0, len(times) - 1}
+    stack = [(0, len(times) - 1)]
+    while stack:
+        first, last = stack.pop()
+        if last - first < 2:
+            continue
+        t = times[first + 1:last]
+        line = values[first] + (values[last] - values[first]) * (t - times[first]) / (times[last] - times[first])
+        error = np.abs(values[first + 1:last] - line)
+        worst = int(np.argmax(error))
+        if error[worst] > tolerance:
+            middle = first + 1 + worst
+            keep.add(middle)
+            stack += [(first, middle), (middle, last)]
+    return keep
+
+
+def trajectories(recording: Recording) -> dict[str, dict]:
+    """The motion of each tool as a ToolTrajectory JSON object (viscera.trajectory): the commands
+    of every tick in tool units, simplified within TOLERANCE, each waypoint at its tick's time.
+    ToolTrajectory eases between waypoints (a quintic) where the recording held each command for a
+    tick, so playing the file back is close to the recording, not bit for bit; `max_velocity` is
+    set above the recording's own speeds so that its retiming never stretches the file."""
+    from viscera.trajectory import COORDINATES, PEAK_SPEED, UNITS
+    env = load_task(recording.task, recording.seed, recording.control_timestep_s, recording.time_limit_s)
+    model = env.physics.model.ptr
+    tools = env.physics.tools()
+    dt = recording.control_timestep_s
+    times = (np.arange(recording.steps) + 1) * dt  # a tick's command holds until its end
+    out = {}
+    for tool in tools:
+        columns, names = [], []
+        for c in COORDINATES:
+            a = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{tool}_{c}")
+            if a >= 0:
+                scale = 1.0 if UNITS[c] == "m" else 180.0 / np.pi
+                columns.append(recording.actions[:, a] * scale)
+                names.append(c)
+        keep: set[int] = {0}
+        for c, column in zip(names, columns):
+            if len(column):
+                keep |= _simplify(times, column, TOLERANCE[UNITS[c]])
+        rows = sorted(i for i in keep if i < recording.steps)
+        waypoints = [{"time": 0.0, **{c: float(column[0]) for c, column in zip(names, columns)}}] if recording.steps else []
+        waypoints += [{"time": float(times[i]), **{c: float(column[i]) for c, column in zip(names, columns)}}
+                      for i in rows]
+        limits = {}
+        for c, column in zip(names, columns):
+            fastest = float(np.max(np.abs(np.diff(column))) / dt) if len(column) > 1 else 0.0
+            limits[c] = max(1e-6, 2.0 * PEAK_SPEED * fastest, 1.0)
+        out[tool] = {"waypoints": waypoints, "max_velocity": limits,
+                     "source": {"task": recording.task, "seed": recording.seed, "policy": recording.policy}}
+    return out
