@@ -30,6 +30,7 @@ import os
 import pathlib
 import tempfile
 import zipfile
+import zlib
 from collections.abc import Callable
 
 import mujoco
@@ -114,7 +115,7 @@ def load(path: str | os.PathLike) -> Recording:
             actions = archive["actions"] if "actions" in keys else None
     except RecordingError:
         raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as error:  # truncated, CRC, bad entry
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError) as error:  # truncated, CRC, bad entry
         raise RecordingError(f"{name}: corrupt or truncated ({_one_line(error)})") from None
     try:
         meta = json.loads(bytes(np.asarray(meta_bytes, dtype=np.uint8)).decode())
@@ -315,31 +316,36 @@ def verdict(task: str, success: bool) -> str:
 TOLERANCE = {"deg": 0.05, "m": 0.00005}  # waypoints simplified within 0.05 deg and 0.05 mm
 
 
-def _simplify(times: np.ndarray, values: np.ndarray, tolerance: float) -> set[int]:
-    """Indices the Ramer-Douglas-Peucker simplification of one coordinate keeps (ends included)."""
+def _simplify(times: np.ndarray, values: np.ndarray, tolerance: np.ndarray) -> list[int]:
+    """The ticks to keep as waypoints (ends included) so that ToolTrajectory's quintic between
+    consecutive kept ticks passes within `tolerance` (per coordinate) of every tick's value:
+    Ramer-Douglas-Peucker with the quintic smoothstep in place of the straight line, on all of a
+    tool's coordinates at once (values: (ticks, coordinates))."""
     keep = {0, len(times) - 1}
     stack = [(0, len(times) - 1)]
     while stack:
         first, last = stack.pop()
         if last - first < 2:
             continue
-        t = times[first + 1:last]
-        line = values[first] + (values[last] - values[first]) * (t - times[first]) / (times[last] - times[first])
-        error = np.abs(values[first + 1:last] - line)
+        u = (times[first + 1:last] - times[first]) / (times[last] - times[first])
+        ease = (u * u * u * (10.0 + u * (-15.0 + 6.0 * u)))[:, None]
+        curve = values[first] + ease * (values[last] - values[first])
+        error = np.max(np.abs(values[first + 1:last] - curve) / tolerance, axis=1)
         worst = int(np.argmax(error))
-        if error[worst] > tolerance:
+        if error[worst] > 1.0:
             middle = first + 1 + worst
             keep.add(middle)
             stack += [(first, middle), (middle, last)]
-    return keep
+    return sorted(keep)
 
 
 def trajectories(recording: Recording) -> dict[str, dict]:
-    """The motion of each tool as a ToolTrajectory JSON object (viscera.trajectory): the commands
-    of every tick in tool units, simplified within TOLERANCE, each waypoint at its tick's time.
-    ToolTrajectory eases between waypoints (a quintic) where the recording held each command for a
-    tick, so playing the file back is close to the recording, not bit for bit; `max_velocity` is
-    set above the recording's own speeds so that its retiming never stretches the file."""
+    """The motion of each tool as a ToolTrajectory JSON object (viscera.trajectory): the command
+    of each tick in tool units (deg, m) at the tick's end, kept where ToolTrajectory's easing
+    between kept ticks would miss a tick's command by more than TOLERANCE. Played back, the file
+    passes within TOLERANCE of every tick's command; between ticks it eases where the recording
+    stepped, so a replay from it is close to the recording, not bit for bit. `max_velocity` is set
+    above the recording's own speeds so that ToolTrajectory's retiming never stretches it."""
     from viscera.trajectory import COORDINATES, PEAK_SPEED, UNITS
     env = load_task(recording.task, recording.seed, recording.control_timestep_s, recording.time_limit_s)
     model = env.physics.model.ptr
@@ -355,14 +361,11 @@ def trajectories(recording: Recording) -> dict[str, dict]:
                 scale = 1.0 if UNITS[c] == "m" else 180.0 / np.pi
                 columns.append(recording.actions[:, a] * scale)
                 names.append(c)
-        keep: set[int] = {0}
-        for c, column in zip(names, columns):
-            if len(column):
-                keep |= _simplify(times, column, TOLERANCE[UNITS[c]])
-        rows = sorted(i for i in keep if i < recording.steps)
-        waypoints = [{"time": 0.0, **{c: float(column[0]) for c, column in zip(names, columns)}}] if recording.steps else []
-        waypoints += [{"time": float(times[i]), **{c: float(column[i]) for c, column in zip(names, columns)}}
-                      for i in rows]
+        values = np.stack(columns, axis=1) if columns else np.zeros((recording.steps, 0))
+        tolerance = np.array([TOLERANCE[UNITS[c]] for c in names])
+        rows = _simplify(times, values, tolerance) if recording.steps and names else []
+        waypoints = [{"time": 0.0, **dict(zip(names, map(float, values[0])))}] if recording.steps else []
+        waypoints += [{"time": float(times[i]), **dict(zip(names, map(float, values[i])))} for i in rows]
         limits = {}
         for c, column in zip(names, columns):
             fastest = float(np.max(np.abs(np.diff(column))) / dt) if len(column) > 1 else 0.0
