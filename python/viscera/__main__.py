@@ -2,6 +2,9 @@
 
     python -m viscera run SCENE.xml [--duration 5] [--png out.png] [--viewer meshcat]
     python -m viscera view SCENE.xml    # MuJoCo's interactive viewer, the intestine drawn
+    python -m viscera teleop TASK [--seed S] [--device keyboard] [--record FILE]   # a person at the tools
+    python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without one
+    python -m viscera replay FILE [--json OUT] [--viewer meshcat] [--trajectory OUT.json]
 """
 
 from __future__ import annotations
@@ -190,13 +193,125 @@ def view(scene: str) -> None:
                         "the run in a browser", status=2)
     import mujoco.viewer
 
+    if model.ncam > 0 and model.vis.global_.cameraid < 0:
+        model.vis.global_.cameraid = 0  # the viewer opens from the scene's first camera, as the meshcat viewer does
     mujoco.viewer.launch(model, mujoco.MjData(model))
 
 
+def _trace_and_score(task: str):
+    """An on_step callback sampling viscera.assess's trace, and a function giving the score."""
+    from viscera import assess
+    tracer = []
+
+    def on_step(env, time_step) -> None:
+        if not tracer:
+            tracer.append(assess.Tracer(env))
+        tracer[0].sample(env)
+
+    return on_step, lambda: assess.score(tracer[0].trace)
+
+
+def print_score(score: dict) -> None:
+    """The score's figures, one line per tool and one for the tissue."""
+    from viscera import assess
+    for line in assess.summary_lines(score):
+        print(line)
+
+
+def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool) -> dict:
+    from viscera import recording
+    on_step, score = _trace_and_score(task)
+    made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step)
+    made.save(out)
+    result = score()
+    print(f"recording        {out} ({task}, seed {seed}, {policy} policy, {made.steps} ticks of "
+          f"{made.control_timestep_s * 1e3:g} ms)")
+    print_score(result)
+    print(f"final state      sha256 {made.final_state_sha256}")
+    print(recording.verdict(task, made.success), flush=True)
+    return result
+
+
+def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str | None, quiet: bool) -> dict:
+    import json
+
+    from viscera import recording
+    try:
+        made = recording.load(path)
+    except recording.RecordingError as error:
+        raise UserError(str(error)) from None
+    on_step, score = _trace_and_score(made.task)
+    show = None
+    if viewer == "meshcat":
+        on_step = _shown(on_step, made.control_timestep_s)
+    try:
+        result = recording.replay(made, on_step=on_step, progress=not quiet and viewer is None)
+    except recording.RecordingError as error:
+        raise UserError(f"{path}: {error}") from None
+    finally:
+        show = getattr(on_step, "view", None)
+        if show and show[0] is not None:
+            show[0].close()
+    if not result.matches(made):
+        raise UserError(f"{path}: the replay ended in another state (sha256 {result.final_state_sha256[:16]}..., "
+                        f"recorded {made.final_state_sha256[:16]}...); it was recorded with "
+                        f"viscera {made.versions.get('viscera', '?')}, mujoco {made.versions.get('mujoco', '?')}")
+    values = score()
+    print(f"replayed         {path} ({made.task}, seed {made.seed}, {made.policy} policy, {result.steps} ticks): "
+          "bit-identical")
+    print_score(values)
+    print(f"final state      sha256 {result.final_state_sha256}")
+    if json_out:
+        document = dict(values, final_state_sha256=result.final_state_sha256,
+                        recording={"task": made.task, "seed": made.seed, "policy": made.policy, "steps": result.steps})
+        with open(json_out, "w") as f:
+            json.dump(document, f, indent=1)
+        print(f"score            {json_out}")
+    if trajectory:
+        for tool, spec in recording.trajectories(made).items():
+            name = trajectory_file(trajectory, tool)
+            with open(name, "w") as f:
+                json.dump(spec, f, indent=1)
+            print(f"trajectory       {name} ({len(spec['waypoints'])} waypoints)")
+    print(recording.verdict(made.task, result.success), flush=True)
+    return values
+
+
+def trajectory_file(pattern: str, tool: str) -> str:
+    """OUT.json -> OUT_<tool>.json: one ToolTrajectory file per tool."""
+    root, suffix = os.path.splitext(pattern)
+    return f"{root}_{tool}{suffix}"
+
+
+def _shown(on_step, control_timestep_s: float):
+    """on_step that also shows the replay in a meshcat viewer, paced to real time."""
+    from viscera.viewer import MeshcatViewer
+    view = [None]
+    start = [0.0]
+    every = max(1, int(round(1.0 / (30.0 * control_timestep_s))))
+
+    def step(env, time_step) -> None:
+        on_step(env, time_step)
+        physics = env.physics
+        if view[0] is None:  # the first time step: the episode's model is built
+            view[0] = MeshcatViewer(physics.model.ptr, camera=0 if physics.model.ncam else None)
+            print(f"meshcat viewer: {view[0].url}", flush=True)
+            start[0] = time.perf_counter()
+        if int(round(physics.data.time / control_timestep_s)) % every == 0 or time_step.last():
+            view[0].update(physics.data.ptr)
+            ahead = physics.data.time - (time.perf_counter() - start[0])
+            if ahead > 0:
+                time.sleep(ahead)  # the replay plays at the rate it was recorded at
+
+    step.view = view
+    return step
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
-                                     "Run an MJCF scene with intestines and print a summary, or open it in "
-                                     "MuJoCo's viewer.")
+    parser = cli.OneLineParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
+                               "Run an MJCF scene with intestines and print a summary, open it in MuJoCo's "
+                               "viewer, drive a task's tools yourself (teleop), record an episode and replay it "
+                               "with its score.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run_parser = commands.add_parser("run", help="simulate an MJCF scene and print a summary",
                                      description="Simulate an MJCF scene and print a summary. Every option is "
@@ -220,23 +335,81 @@ def build_parser() -> argparse.ArgumentParser:
     run_parser.set_defaults(command_parser=run_parser)
     view_parser = commands.add_parser("view", help="open MuJoCo's interactive viewer on an MJCF scene",
                                       description="Open MuJoCo's interactive viewer (simulate) on an MJCF scene "
-                                      "with the viscera plugin loaded and the intestine drawn. Its Camera menu "
-                                      "(or the [ and ] keys) switches to the scene's cameras, e.g. the "
-                                      "abdomen's laparoscope. Needs a display.")
+                                      "with the viscera plugin loaded and the intestine drawn, from the scene's "
+                                      "first camera. Its Camera menu (or the [ and ] keys) switches cameras, "
+                                      "Esc frees the camera. Needs a display. To drive a task's tools, use teleop.")
     view_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/abdomen.xml")
     view_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     view_parser.set_defaults(command_parser=view_parser)
+
+    import viscera.tasks
+    from viscera.recording import POLICIES
+    from viscera.teleop.devices import DEVICES
+    teleop_parser = commands.add_parser(
+        "teleop", help="drive a task's tools yourself in MuJoCo's viewer, then get the score",
+        description="Open a task's randomised episode in MuJoCo's viewer, through the laparoscope, and drive its "
+        "tools with a device, in real time; the score is printed when the episode ends (success, time limit, "
+        "or the window closed). Needs a display. docs/rehearsal.md has the bindings and the socket protocol.")
+    teleop_parser.add_argument("task", choices=viscera.tasks.ALL, metavar="TASK",
+                               help=f"one of {', '.join(viscera.tasks.ALL)}")
+    teleop_parser.add_argument("--seed", type=cli.natural_int, default=0, help="the episode's seed (default 0)")
+    teleop_parser.add_argument("--device", choices=DEVICES, default="keyboard",
+                               help="what drives the tools (default keyboard; socket: an external haptic device)")
+    teleop_parser.add_argument("--record", type=cli.output_file(".npz"),
+                               help="save the session to this file, for replay")
+    teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
+    teleop_parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s "
+                               "(default: the task's)")
+    teleop_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    teleop_parser.set_defaults(command_parser=teleop_parser)
+    record_parser = commands.add_parser(
+        "record", help="record an episode of a task played by a policy (no person), with its score",
+        description="Run one episode of a task with a scripted, random or idle policy, save it for replay, and "
+        "print its score, the final state's SHA-256 and the verdict.")
+    record_parser.add_argument("task", choices=viscera.tasks.ALL, metavar="TASK",
+                               help=f"one of {', '.join(viscera.tasks.ALL)}")
+    record_parser.add_argument("--seed", type=cli.natural_int, required=True, help="the episode's seed")
+    record_parser.add_argument("--policy", choices=POLICIES, required=True,
+                               help="scripted (the task's script), random (uniform actions, numpy's "
+                               "default_rng(seed)) or idle (the tools held withdrawn)")
+    record_parser.add_argument("--out", type=cli.output_file(".npz"), required=True, help="the recording (.npz)")
+    record_parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s "
+                               "(default: the task's)")
+    record_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    record_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    record_parser.set_defaults(command_parser=record_parser)
+    replay_parser = commands.add_parser(
+        "replay", help="replay a recording bit for bit and print its score",
+        description="Replay a recording (teleop --record or record) bit for bit, check it ends in the recorded "
+        "state, print the score and the verdict.")
+    replay_parser.add_argument("recording", type=cli.input_file, help="a recording (.npz)")
+    replay_parser.add_argument("--json", type=cli.output_file(".json"),
+                               help="write the score and final_state_sha256 to this JSON file")
+    replay_parser.add_argument("--viewer", choices=["meshcat"], help="show the replay in a browser (meshcat), "
+                               "at the rate it was recorded at")
+    replay_parser.add_argument("--trajectory", type=cli.output_file(".json"),
+                               help="write each tool's motion as a ToolTrajectory file: OUT.json gives "
+                               "OUT_<tool>.json per tool")
+    replay_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    replay_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+    replay_parser.set_defaults(command_parser=replay_parser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
-    if unknown:  # a misspelled option of `run` gets run's usage, not the top level's
-        args.command_parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    cli.check_unknown(args.command_parser, unknown)  # a misspelled option of `run` gets run's line, not the top level's
     with cli.user_errors(f"{PROG} {args.command}", args.verbose):  # the prefix argparse's errors have
         if args.command == "view":
             view(args.scene)
+        elif args.command == "teleop":
+            from viscera.teleop.app import teleop
+            teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit)
+        elif args.command == "record":
+            record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet)
+        elif args.command == "replay":
+            replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet)
         else:
             run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record,
                 args.record_fps, args.host, args.hold, report=_print_summary)

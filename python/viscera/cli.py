@@ -148,3 +148,64 @@ def save_png(path: str | os.PathLike, rgb) -> None:
     """Write an (H, W, 3) uint8 image as a PNG (Pillow, which meshcat brings)."""
     from PIL import Image
     Image.fromarray(rgb).save(path, format="PNG")
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, with a user's mistake as one line on stderr (`prog: error: message`, status 2)
+    instead of the usage block before it, and a "did you mean" for a misspelled option, command
+    or choice; --help still prints the whole help. Subcommand parsers are of this class too."""
+
+    def error(self, message: str):  # argparse's hook for every parsing mistake
+        print(f"{self.prog}: error: {one_line(self.suggest(message))}", file=sys.stderr, flush=True)
+        raise SystemExit(2)
+
+    def options(self) -> list[str]:
+        return [option for action in self._actions for option in action.option_strings if option.startswith("--")]
+
+    def suggest(self, message: str) -> str:
+        """`message` with a "did you mean" for the misspelled word it names, where one is close."""
+        import difflib
+        import re
+        unknown = re.match(r"unrecognized arguments: (.*)", message)
+        if unknown:
+            hints = []
+            for word in unknown.group(1).split():
+                option = word.split("=", 1)[0]
+                if option.startswith("--"):
+                    close = difflib.get_close_matches(option, self.options(), n=1, cutoff=0.6)
+                    hints.append(f"{option}: did you mean {close[0]}?" if close else f"{option}: no such option")
+                elif word.startswith("-"):
+                    hints.append(f"{word}: no such option")
+            if hints:
+                return f"unrecognized arguments: {unknown.group(1)} ({'; '.join(hints)}; --help lists them)"
+            return message
+        choice = re.match(r"argument (\S+): invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            choices = re.findall(r"'([^']*)'", choice.group(3))
+            close = difflib.get_close_matches(choice.group(2), choices, n=1, cutoff=0.6)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            return f"argument {choice.group(1)}: invalid choice {choice.group(2)!r}: {hint}choose from {', '.join(choices)}"
+        return message
+
+
+def check_unknown(parser: argparse.ArgumentParser, unknown: list[str]) -> None:
+    """parse_known_args's leftovers are the subcommand's mistake: its one line."""
+    if unknown:
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+
+
+def port(text: str) -> int:
+    """argparse type: a TCP/UDP port, 1 to 65535."""
+    value = _number(int, text)
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port from 1 to 65535, got {text!r}")
+    return value
+
+
+def input_file(text: str) -> str:
+    """argparse type: a file that exists (its contents are checked by whoever reads it)."""
+    if not os.path.exists(text):
+        raise argparse.ArgumentTypeError(f"{text!r}: no such file")
+    if os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder")
+    return text

@@ -15,7 +15,9 @@ which CleanRL-style loops cannot batch into one tensor. Here:
   first), then returns the FIRST time step's observation; its info carries
   step_type only (dm_env's FIRST discount is None, which gymnasium could not batch
   beside floats). reset() without a seed draws the next episode.
-- step's info carries step_type and discount.
+- step's info carries step_type and discount, and the step's tissue-safety cost as `cost`
+  (the key safe-RL libraries read) and `tissue_cost` (viscera.assess.step_cost: one per tool
+  over the traction limit, per jaw over the slip-preventing pinch and over perforation).
 - step returns the dm_env reward (float), and ends an episode exactly as dm_env
   does: a LAST step with discount 0 is `terminated` (the task ended it: the area is
   clear), a LAST step with discount > 0 is `truncated` (the time limit). Stepping
@@ -47,6 +49,7 @@ import numpy as np
 from dm_env import specs
 
 import viscera.tasks
+from viscera import assess
 from viscera.scale import observations
 from viscera.checks import checked_bool, finite_array
 from viscera.pixels import LABELS
@@ -151,8 +154,11 @@ class TaskEnv(gymnasium.Env):
             self._episode_over = True
             terminated = time_step.discount == 0.0
             truncated = not terminated
-        return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated,
-                self._info(time_step))
+        info = self._info(time_step)
+        # the tissue-safety cost of the step's end (viscera.assess.step_cost), under the key safe-RL
+        # libraries read (safety-gymnasium, OmniSafe), and under its own name
+        info["cost"] = info["tissue_cost"] = assess.step_cost(self.dm_env.physics)
+        return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated, info)
 
     def dm_action(self, action: np.ndarray) -> np.ndarray:
         """The dm_env action (actuator controls) of a gymnasium action."""
