@@ -155,6 +155,10 @@ class OneLineParser(argparse.ArgumentParser):
     instead of the usage block before it, and a "did you mean" for a misspelled option, command
     or choice; --help still prints the whole help. Subcommand parsers are of this class too."""
 
+    def parse_known_args(self, args=None, namespace=None):
+        self._words = list(sys.argv[1:] if args is None else args)  # for hints when a required option is missing
+        return super().parse_known_args(args, namespace)
+
     def error(self, message: str):  # argparse's hook for every parsing mistake
         print(f"{self.prog}: error: {one_line(self.suggest(message))}", file=sys.stderr, flush=True)
         raise SystemExit(2)
@@ -178,6 +182,15 @@ class OneLineParser(argparse.ArgumentParser):
                     hints.append(f"{word}: no such option")
             if hints:
                 return f"unrecognized arguments: {unknown.group(1)} ({'; '.join(hints)}; --help lists them)"
+            return message
+        if message.startswith("the following arguments are required"):  # perhaps given, misspelled
+            known = self.options()
+            for word in getattr(self, "_words", []):
+                option = word.split("=", 1)[0]
+                if option.startswith("--") and option not in known:
+                    close = difflib.get_close_matches(option, known, n=1, cutoff=0.6)
+                    if close:
+                        return f"{message} ({option}: did you mean {close[0]}?)"
             return message
         choice = re.match(r"argument (\S+): invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if choice:

@@ -99,13 +99,40 @@ def test_run_reports_a_missing_scene(tmp_path):
     ("--png", "{tmp}/no/such/folder/out.png", ["folder", "does not exist"]),
     ("--record", "{tmp}/no/such/folder/run.html", ["folder", "does not exist"]),
     ("--duration", "1e308", ["1e308", "at most"]), ("--record-fps", "1e-308", ["1e-308", "at least"]),
-    ("--durration", "1", ["unrecognized arguments", "--durration"]),  # a typo: run's usage, not the top level's
+    ("--durration", "1", ["unrecognized arguments", "--durration", "did you mean --duration?"]),  # run's, not the top level's
 ])
-def test_run_refuses_a_bad_option_with_runs_usage(tmp_path, option, value, names):
+def test_run_refuses_a_bad_option_in_one_line(tmp_path, option, value, names):
+    """One line, argparse's usage block left out: the line that matters is the only one."""
     value = value.format(tmp=tmp_path)
     duration = [] if option == "--duration" else ["--duration", LONG]
     result = viscera("run", PLANE, option, value, *duration, "--quiet", cwd=tmp_path)
-    assert_usage_error(result, "python -m viscera run", option, *names)
+    line = assert_one_line(result, option, *names)
+    assert result.returncode == 2 and line.startswith("python -m viscera run: error: ")
+
+
+@pytest.mark.parametrize("args, names", [
+    (["rn", "x.xml"], ["invalid choice 'rn'", "did you mean 'run'?"]),
+    ([], ["required: COMMAND"]),
+    (["record", "clear_aera", "--seed", "1", "--policy", "scripted", "--out", "a.npz"], ["did you mean 'clear_area'?"]),
+    (["record", "clear_area", "--policy", "scripted", "--out", "a.npz"], ["required", "--seed"]),
+    (["record", "clear_area", "--seed", "-1", "--policy", "scripted", "--out", "a.npz"], ["--seed", "-1"]),
+    (["record", "clear_area", "--seed", "1", "--policy", "smart", "--out", "a.npz"], ["smart", "scripted, random, idle"]),
+    (["record", "clear_area", "--seed", "1", "--policy", "idle", "--out", "a.txt"], ["--out", ".npz"]),
+    (["record", "clear_area", "--seed", "1", "--policy", "idle", "--out", "a.npz", "--time-limit", "0"], ["--time-limit"]),
+    (["record", "clear_area", "--sed", "1", "--policy", "idle", "--out", "a.npz"], ["did you mean --seed?"]),
+    (["replay", "nope.npz"], ["nope.npz", "no such file"]),
+    (["replay", "{tmp}/x.npz", "--json", "x.txt"], ["--json", ".json"]),
+    (["replay", "{tmp}"], ["is a folder"]),
+    (["replay", "{tmp}/x.npz", "--trajectoy", "t.json"], ["did you mean --trajectory?"]),
+    (["teleop", "clear_area", "--device", "mouse"], ["mouse", "keyboard, gamepad, spacemouse, socket"]),
+    (["teleop", "clear_area", "--port", "70000"], ["--port", "70000"]),
+    (["view"], ["required: scene"]),
+])
+def test_every_command_refuses_a_mistake_in_one_line(tmp_path, args, names):
+    (tmp_path / "x.npz").write_bytes(b"")
+    result = viscera(*[a.format(tmp=tmp_path) for a in args], cwd=tmp_path)
+    assert_one_line(result, *names)
+    assert result.returncode == 2
 
 
 def test_run_lists_the_cameras_for_an_unknown_one(tmp_path):
