@@ -9,7 +9,8 @@ docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/c
 (python python/tools/bench_cavity.py --json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
-python/tools/task_rates.py --out docs/tasks/rates.json) or the plugin's table of config keys
+python/tools/task_rates.py --out docs/tasks/rates.json), docs/rehearsal/band.json (python
+python/tools/reference_band.py) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
 
@@ -158,6 +159,27 @@ def task_success() -> str:
     return _rows(["task", f"scripted policy succeeds (seeds {seeds['scripted'][0]} to {seeds['scripted'][1]}, "
                           "not tuned on)", f"uniform random actions ({seeds['random'][1] - seeds['random'][0] + 1} seeds)",
                   f"doing nothing ({seeds['nothing'][1] - seeds['nothing'][0] + 1} seeds)"], rows)
+
+
+def reference_band() -> str:
+    """From docs/rehearsal/band.json (python python/tools/reference_band.py): each task's scripted
+    scores on unseen seeds, median (quartiles); less is better in every column."""
+    data = _json("rehearsal/band.json")
+    columns = [("time_s", "time (s)", "{:.1f}"), ("path_length_m", "tip path, all tools (m)", "{:.2f}"),
+               ("angular_path_deg", "angular path (deg)", "{:.0f}"), ("idle_s", "idle, all tools (s)", "{:.1f}"),
+               ("peak_force_n", "peak tool force (N)", "{:.2f}"), ("out_of_view_s", "out of view (s)", "{:.1f}"),
+               ("peak_pinch_n", "peak pinch (N)", "{:.1f}"), ("force_time_product_ns", "largest grasp's force-time (N s)", "{:.0f}"),
+               ("safety_cost", "safety cost", "{:.1f}")]
+    tasks = list(data["tasks"])
+    rows = [["success"] + [f"{data['tasks'][t]['success_rate']:.0%}" for t in tasks]]
+    for key, label, form in columns:
+        cells = [label]
+        for task in tasks:
+            f = data["tasks"][task]["figures"][key]
+            cells.append(f"{form.format(f['median'])} ({form.format(f['q1'])} to {form.format(f['q3'])})")
+        rows.append(cells)
+    first, last = data["seeds"]
+    return _rows([f"scripted, seeds {first} to {last}: median (quartiles)"] + [f"`{t}`" for t in tasks], rows)
 
 
 def task_throughput() -> str:

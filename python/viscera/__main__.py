@@ -195,7 +195,11 @@ def view(scene: str) -> None:
 
     if model.ncam > 0 and model.vis.global_.cameraid < 0:
         model.vis.global_.cameraid = 0  # the viewer opens from the scene's first camera, as the meshcat viewer does
-    mujoco.viewer.launch(model, mujoco.MjData(model))
+
+    def loader():  # with its path, the viewer aligns its camera to the model's (it does not for a bare model)
+        return model, mujoco.MjData(model), os.path.abspath(scene)
+
+    mujoco.viewer.launch(loader=loader)
 
 
 def _trace_and_score(task: str):

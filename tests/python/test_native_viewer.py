@@ -141,3 +141,17 @@ def test_the_documented_passive_viewer_snippet_runs(display):
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=environment(display), capture_output=True,
                           text=True, timeout=300)
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+
+
+def test_view_opens_from_the_scenes_first_camera(display, tmp_path):
+    """With the abdomen's `top` camera first, the bowel fills the view (about a third of the screen
+    is its colour); MuJoCo's own default view of the whole scene shows it a few centimetres wide."""
+    scene = tmp_path / "top_first.xml"
+    text = ABDOMEN.read_text()
+    overview = next(line for line in text.splitlines() if 'name="overview"' in line)
+    scene.write_text(text.replace(overview + "\n", ""))
+    viewer = subprocess.Popen([sys.executable, "-m", "viscera", "view", str(scene)], env=environment(display),
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    count, _ = watch(display, viewer, lambda count: count > 150_000)
+    err = stop(viewer)
+    assert count > 150_000, (count, err)
