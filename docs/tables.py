@@ -182,6 +182,14 @@ def reference_band() -> str:
     return _rows([f"scripted, seeds {first} to {last}: median (quartiles)"] + [f"`{t}`" for t in tasks], rows)
 
 
+def haptic_protocol() -> str:
+    """The socket device's protocol, from its module's docstring (viscera/teleop/protocol.py), the
+    one place it is written."""
+    from viscera.teleop import protocol
+    doc = protocol.__doc__
+    return doc[doc.index("Transport:"):].strip() + "\n"
+
+
 def task_throughput() -> str:
     """From docs/scale/tasks.json (python python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json)."""
     data = _json("scale/tasks.json")
