@@ -266,21 +266,26 @@ def step_cost_from(forces: np.ndarray, pinches: np.ndarray) -> float:
                  + np.count_nonzero(pinches > SLIP_PREVENTING_PINCH_N) + np.count_nonzero(pinches > PERFORATION_PINCH_N))
 
 
-def step_cost(physics) -> float:
-    """step_cost_from the physics now (for gymnasium's info["cost"])."""
+def pinches(physics) -> dict[str, float]:
+    """Each holding grasper's pinch now (N; the module doc's model); graspers not holding: 0."""
     model, data = physics.model.ptr, physics.data.ptr
-    forces = np.array([physics.named.data.sensordata[f"{t}_force"][:3] for t in physics.tools()])
-    pinches = []
     gut = physics.intestine()
     closed = float(gut.config.get("grasp_closed_below", 0.1))
+    out = {}
     for grasp in gut.grasps(data):
         tool = grasp.site.removesuffix("_tip")
-        if not grasp.holding:
-            continue
-        actuator = model.actuator(f"{tool}_jaw")
-        lever = float(model.geom(f"{tool}_jaw").size[1])
-        pinches.append(float(actuator.gainprm[0]) * max(0.0, closed - float(data.ctrl[actuator.id])) / lever)
-    return step_cost_from(forces, np.array(pinches))
+        out[tool] = 0.0
+        if grasp.holding:
+            actuator = model.actuator(f"{tool}_jaw")
+            lever = float(model.geom(f"{tool}_jaw").size[1])
+            out[tool] = float(actuator.gainprm[0]) * max(0.0, closed - float(data.ctrl[actuator.id])) / lever
+    return out
+
+
+def step_cost(physics) -> float:
+    """step_cost_from the physics now (for gymnasium's info["cost"])."""
+    forces = np.array([physics.named.data.sensordata[f"{t}_force"][:3] for t in physics.tools()])
+    return step_cost_from(forces, np.array(list(pinches(physics).values())))
 
 
 def assess(recording, progress: bool = False) -> dict:

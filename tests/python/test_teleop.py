@@ -250,3 +250,31 @@ def test_teleop_without_a_display_is_one_line():
                           text=True, timeout=120)
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1 and "display" in done.stderr, done.stderr
+
+
+def test_pressing_the_bowel_into_the_wall_raises_the_overlays_warning():
+    """The grasper driven 3 cm below a loop of bowel lying on the posterior wall: the tissue's
+    force on it passes the traction limit, the snapshot warns and the overlay says so; a hold's
+    force-time product past its limit warns too."""
+    from viscera import assess
+    from viscera.tasks.policies import Tools
+    from viscera.teleop import app
+    session = Session("grasp_lift", seed=0, device=None, record=False)
+    tools = Tools(session.env)
+    lowest = session.physics.axis_points(100)
+    reachable = [p for p in lowest if np.linalg.norm(p[:2] - tools.trocar["grasper"][:2]) < 0.05]
+    point = min(reachable, key=lambda p: p[2]) - np.array([0.0, 0.0, 0.03])
+    goal = tools.coordinates("grasper", point, jaw=40.0)
+    session.device = FixedTargets({"grasper": np.array([goal[c] for c in COORDINATES])})
+    session.device.start(session.tools)
+    warned = False
+    while not warned and session.data.time < 6.0:
+        session.tick()
+        warned = session.device.snapshots[-1].warning["grasper"]
+    assert warned
+    force = np.linalg.norm(session.device.snapshots[-1].tissue_force["grasper"])
+    assert force > assess.TRACTION_LIMIT_N
+    texts = app.overlay(session)
+    assert any(box[2] == "WARNING" and "grasper" in box[3] and "limit" in box[3] for box in texts)
+    session.hold_force_time["grasper"] = assess.FORCE_TIME_PRODUCT_LIMIT_NS + 1.0
+    assert any("force-time product" in box[3] for box in app.overlay(session))

@@ -16,6 +16,7 @@ import threading
 import mujoco
 import numpy as np
 
+from viscera import assess
 from viscera.cli import UserError
 from viscera.teleop import devices
 from viscera.teleop.session import FRAME_S, Session
@@ -38,7 +39,8 @@ def overlay(session: Session) -> list[tuple]:
     for tool in session.tools:
         force = float(np.linalg.norm(snapshot.tissue_force[tool.name]))
         names.append(f"{tool.name} force")
-        values.append(f"{force:5.2f} N" + ("  holding" if snapshot.holding[tool.name] else ""))
+        values.append(f"{force:5.2f} N" + (f"  holding, pinch {snapshot.pinch.get(tool.name, 0.0):.1f} N"
+                                           if snapshot.holding[tool.name] else ""))
     names += ["time", "behind real time"]
     values += [f"{session.data.time:5.1f} / {session.time_limit_s:.0f} s",
                f"{session.ticks_behind} ticks, {session.lost_s:.2f} s lost"]
@@ -46,8 +48,17 @@ def overlay(session: Session) -> list[tuple]:
     if keys:
         boxes.append((OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(k for k, _ in keys),
                       "\n".join(v for _, v in keys)))
-    warnings = [f"{name}: {np.linalg.norm(snapshot.tissue_force[name]):.1f} N on the tissue, over "
-                f"{session.force_warning_n:g} N" for name, over in snapshot.warning.items() if over]
+    warnings = []
+    for name in snapshot.warning:
+        force = float(np.linalg.norm(snapshot.tissue_force[name]))
+        if force > assess.TRACTION_LIMIT_N:
+            warnings.append(f"{name}: {force:.1f} N on the tissue, over its {assess.TRACTION_LIMIT_N:g} N limit")
+        if session.hold_force_time.get(name, 0.0) > assess.FORCE_TIME_PRODUCT_LIMIT_NS:
+            warnings.append(f"{name}: this hold's force-time product {session.hold_force_time[name]:.0f} N s, over "
+                            f"{assess.FORCE_TIME_PRODUCT_LIMIT_NS:g} N s")
+        if snapshot.pinch.get(name, 0.0) > assess.PERFORATION_PINCH_N:
+            warnings.append(f"{name}: pinch {snapshot.pinch[name]:.1f} N, over perforation "
+                            f"({assess.PERFORATION_PINCH_N:g} N)")
     if warnings:
         boxes.append((OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, "WARNING", "\n".join(warnings)))
     return boxes

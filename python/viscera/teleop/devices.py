@@ -57,6 +57,7 @@ class Snapshot:
     tissue_force: dict[str, np.ndarray]    # tool -> (3,) the intestine's force on the tool
     holding: dict[str, bool]               # tool -> its jaws hold the bowel
     warning: dict[str, bool]               # tool -> a tissue threshold is crossed
+    pinch: dict[str, float] = dataclasses.field(default_factory=dict)  # grasper -> its pinch (N, viscera.assess's model)
 
 
 class Device:

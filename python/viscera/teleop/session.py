@@ -28,13 +28,13 @@ import mujoco
 import numpy as np
 
 import viscera.tasks
+from viscera import assess
 from viscera.teleop.devices import MAX_VELOCITY, Device, Snapshot, ToolInfo
 from viscera.trajectory import COORDINATES
 
 CONTROL_TIMESTEP_S = 0.01   # a device's commands reach the tools at 100 Hz (the physics runs at 500 Hz)
 FRAME_S = 1.0 / 30.0        # the viewer is redrawn at 30 frames per wall second
 TO_SI = np.array([np.pi / 180.0, np.pi / 180.0, 1.0, np.pi / 180.0, np.pi / 180.0])  # user units -> rad, m
-TOOL_FORCE_WARNING_N = 2.0  # fallback when viscera.assess does not give its threshold
 
 
 @dataclasses.dataclass
@@ -70,14 +70,10 @@ class Session:
         self.ticks = 0
         self.ticks_behind = 0
         self.lost_s = 0.0
-        self.tracer = self.recorder = None
-        try:
-            from viscera import assess
-            self.tracer = assess.Tracer(self.env)
-            self.tracer.sample(self.env)
-            self.force_warning_n = float(getattr(assess, "TOOL_FORCE_THRESHOLD_N", TOOL_FORCE_WARNING_N))
-        except ImportError:  # the score's module is optional to stepping
-            self.force_warning_n = TOOL_FORCE_WARNING_N
+        self.recorder = None
+        self.hold_force_time: dict[str, float] = {}  # N s, each grasper's current hold (0 when not holding)
+        self.tracer = assess.Tracer(self.env)
+        self.tracer.sample(self.env)
         if record:
             from viscera.recording import Recorder
             self.recorder = Recorder(task, seed, f"person:{device.name if device else 'none'}",
@@ -119,14 +115,17 @@ class Session:
         holding = {}
         for grasp in self.physics.intestine().grasps(self.data):
             holding[grasp.site.removesuffix("_tip")] = grasp.holding
+        pinch = assess.pinches(self.physics)
         q, qdot, force, warning = {}, {}, {}, {}
         for tool in self.tools:
             q[tool.name] = self._joint_values(tool.name, self.data.qpos, self._qpos)
             qdot[tool.name] = self._joint_values(tool.name, self.data.qvel, self._dof)
             force[tool.name] = np.array(sensors[f"{tool.name}_force"][:3], dtype=float)
-            warning[tool.name] = bool(np.linalg.norm(force[tool.name]) > self.force_warning_n)
+            warning[tool.name] = bool(np.linalg.norm(force[tool.name]) > assess.TRACTION_LIMIT_N
+                                      or pinch.get(tool.name, 0.0) > assess.PERFORATION_PINCH_N
+                                      or self.hold_force_time.get(tool.name, 0.0) > assess.FORCE_TIME_PRODUCT_LIMIT_NS)
         return Snapshot(float(self.data.time), q, qdot, force, {t.name: holding.get(t.name, False) for t in self.tools},
-                        warning)
+                        warning, pinch)
 
     def action(self) -> np.ndarray:
         """The dm_env action of the current commands (rad, m per actuator)."""
@@ -155,8 +154,9 @@ class Session:
         self.ticks += 1
         if self.recorder is not None:
             self.recorder.append(action)
-        if self.tracer is not None:
-            self.tracer.sample(self.env)
+        self.tracer.sample(self.env)
+        for tool, pinch in assess.pinches(self.physics).items():  # the current hold's force-time product
+            self.hold_force_time[tool] = self.hold_force_time.get(tool, 0.0) + pinch * dt if pinch > 0.0 else 0.0
         if self.device is not None:
             self.device.feedback(self.snapshot())
 
@@ -214,10 +214,7 @@ class Session:
 
     def result(self, ended: str) -> SessionResult:
         recording = self.recorder.finish(self.env) if self.recorder is not None else None
-        score = None
-        if self.tracer is not None:
-            from viscera import assess
-            score = assess.score(self.tracer.trace)
+        score = assess.score(self.tracer.trace)
         return SessionResult(ended, ended == "success", float(self.data.time), self.ticks, self.ticks_behind,
                              self.lost_s, recording, score)
 
