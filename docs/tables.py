@@ -167,7 +167,7 @@ def reference_band() -> str:
     data = _json("rehearsal/band.json")
     columns = [("time_s", "time (s)", "{:.1f}"), ("path_length_m", "tip path, all tools (m)", "{:.2f}"),
                ("angular_path_deg", "angular path (deg)", "{:.0f}"), ("idle_s", "idle, all tools (s)", "{:.1f}"),
-               ("peak_force_n", "peak tool force (N)", "{:.2f}"), ("out_of_view_s", "out of view (s)", "{:.1f}"),
+               ("peak_force_n", "peak tool force (N)", "{:.2f}"), ("out_of_view_s", "out of view, all tools (s)", "{:.1f}"),
                ("peak_pinch_n", "peak pinch (N)", "{:.1f}"), ("force_time_product_ns", "largest grasp's force-time (N s)", "{:.0f}"),
                ("safety_cost", "safety cost", "{:.1f}")]
     tasks = list(data["tasks"])
