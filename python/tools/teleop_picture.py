@@ -3,8 +3,9 @@
     python python/tools/teleop_picture.py --out docs/rehearsal/teleop.png [--task clear_area] [--seed 0]
 
 Runs `python -m viscera teleop`'s viewer (viscera.teleop.app: the laparoscope's view, the
-overlay) on a virtual X display (Xvfb) with the task's scripted policy at the controls, and
-takes a screenshot of the window once the tools are at work (--at simulated seconds).
+overlay, the keyboard's bindings) on a virtual X display (Xvfb) with the task's scripted policy
+at the controls, and takes a screenshot of the window once the tools are at work (--at
+simulated seconds).
 """
 
 from __future__ import annotations
@@ -48,10 +49,11 @@ def main() -> None:
 
         import viscera.tasks
         from viscera.teleop import app
-        from viscera.teleop.devices import PolicyDevice
+        from viscera.teleop.devices import KeyboardDevice, PolicyDevice
         from viscera.teleop.session import Session
 
         device = PolicyDevice()
+        device.help_lines = KeyboardDevice().help_lines  # the overlay a keyboard user sees
         session = Session(args.task, seed=args.seed, device=device, record=False)
         device.drive(session, viscera.tasks.scripted_policy(session.env))
         app.prepare_view(session.model)
