@@ -311,6 +311,17 @@ def _shown(on_step, control_timestep_s: float):
     return step
 
 
+def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None:
+    """A task's episode: its name, seed and time limit (teleop, record)."""
+    from viscera.task_registry import TASKS  # the names, without loading dm_control
+    parser.add_argument("task", choices=tuple(TASKS), metavar="TASK", help=f"one of {', '.join(TASKS)}")
+    if seed_required:
+        parser.add_argument("--seed", type=cli.natural_int, required=True, help="the episode's seed")
+    else:
+        parser.add_argument("--seed", type=cli.natural_int, default=0, help="the episode's seed (default 0)")
+    parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s (default: the task's)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = cli.OneLineParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
                                "Run an MJCF scene with intestines and print a summary, open it in MuJoCo's "
@@ -346,7 +357,6 @@ def build_parser() -> argparse.ArgumentParser:
     view_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     view_parser.set_defaults(command_parser=view_parser)
 
-    import viscera.tasks
     from viscera.recording import POLICIES
     from viscera.teleop.devices import DEVICES
     teleop_parser = commands.add_parser(
@@ -354,31 +364,23 @@ def build_parser() -> argparse.ArgumentParser:
         description="Open a task's randomised episode in MuJoCo's viewer, through the laparoscope, and drive its "
         "tools with a device, in real time; the score is printed when the episode ends (success, time limit, "
         "or the window closed). Needs a display. docs/rehearsal.md has the bindings and the socket protocol.")
-    teleop_parser.add_argument("task", choices=viscera.tasks.ALL, metavar="TASK",
-                               help=f"one of {', '.join(viscera.tasks.ALL)}")
-    teleop_parser.add_argument("--seed", type=cli.natural_int, default=0, help="the episode's seed (default 0)")
+    task_arguments(teleop_parser, seed_required=False)
     teleop_parser.add_argument("--device", choices=DEVICES, default="keyboard",
                                help="what drives the tools (default keyboard; socket: an external haptic device)")
     teleop_parser.add_argument("--record", type=cli.output_file(".npz"),
                                help="save the session to this file, for replay")
     teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
-    teleop_parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s "
-                               "(default: the task's)")
     teleop_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     teleop_parser.set_defaults(command_parser=teleop_parser)
     record_parser = commands.add_parser(
         "record", help="record an episode of a task played by a policy (no person), with its score",
         description="Run one episode of a task with a scripted, random or idle policy, save it for replay, and "
         "print its score, the final state's SHA-256 and the verdict.")
-    record_parser.add_argument("task", choices=viscera.tasks.ALL, metavar="TASK",
-                               help=f"one of {', '.join(viscera.tasks.ALL)}")
-    record_parser.add_argument("--seed", type=cli.natural_int, required=True, help="the episode's seed")
+    task_arguments(record_parser, seed_required=True)
     record_parser.add_argument("--policy", choices=POLICIES, required=True,
                                help="scripted (the task's script), random (uniform actions, numpy's "
                                "default_rng(seed)) or idle (the tools held withdrawn)")
     record_parser.add_argument("--out", type=cli.output_file(".npz"), required=True, help="the recording (.npz)")
-    record_parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s "
-                               "(default: the task's)")
     record_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     record_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     record_parser.set_defaults(command_parser=record_parser)

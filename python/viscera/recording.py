@@ -233,14 +233,27 @@ def record(task: str, seed: int | None, policy: str = "scripted", time_limit_s: 
     act = policy_for(env, policy, policy_seed)
     recorder = Recorder(task, seed, policy, env.control_timestep(),
                         time_limit_s if time_limit_s is not None else env.task.TIME_LIMIT_S, policy_seed)
+    _step_through(env, time_step, lambda step: np.asarray(act(step), dtype=np.float64), on_step,
+                  _bar(progress, recorder.recording, task), recorder.append)
+    return recorder.finish(env)
+
+
+def _step_through(env, time_step, act: Callable, on_step: Callable | None, bar, record: Callable | None = None) -> int:
+    """Step `env` with `act(time_step)`'s actions until it gives None or the episode ends;
+    `on_step(env, time_step)` after the reset and every step; `record(action)` before each step.
+    Returns the steps taken."""
     if on_step is not None:
         on_step(env, time_step)
-    bar = _bar(progress, recorder.recording, task)
+    steps = 0
     try:
         while not time_step.last():
-            action = np.asarray(act(time_step), dtype=np.float64)
-            recorder.append(action)
+            action = act(time_step)
+            if action is None:
+                break
+            if record is not None:
+                record(action)
             time_step = env.step(action)
+            steps += 1
             if on_step is not None:
                 on_step(env, time_step)
             if bar is not None:
@@ -248,7 +261,7 @@ def record(task: str, seed: int | None, policy: str = "scripted", time_limit_s: 
     finally:
         if bar is not None:
             bar.close()
-    return recorder.finish(env)
+    return steps
 
 
 def _bar(progress: bool, recording: Recording, task: str):
@@ -278,23 +291,9 @@ def replay(recording: Recording, on_step: Callable | None = None, progress: bool
     if recording.actions.shape[1:] != expected:
         raise RecordingError(f"actions of {recording.actions.shape[1]} values, the task {recording.task!r} takes "
                              f"{expected[0]}")
-    if on_step is not None:
-        on_step(env, time_step)
-    steps = 0
-    bar = _bar(progress, recording, recording.task)
-    try:
-        for action in recording.actions:
-            if time_step.last():
-                break
-            time_step = env.step(action)
-            steps += 1
-            if on_step is not None:
-                on_step(env, time_step)
-            if bar is not None:
-                bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
+    actions = iter(recording.actions)
+    steps = _step_through(env, time_step, lambda step: next(actions, None), on_step,
+                          _bar(progress, recording, recording.task))
     return ReplayResult(final_state_sha256(env.physics), bool(env.task.success(env.physics)), steps, env)
 
 

@@ -31,3 +31,27 @@ def falling_line():
             '<body name="box" pos="0.3 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="0.1"/></body>')
     return compile_scene(body, length=1.0, control_points=40, shape="line", start=[0.0, 0.0, 0.3],
                          direction=[1.0, 0.0, 0.1])
+
+
+@pytest.fixture
+def display():
+    """A virtual X display (Xvfb) for MuJoCo's viewer; Xvfb writes its number to the pipe once it
+    serves (-noreset: the server is not regenerated when its last client, a screenshot, leaves)."""
+    import os
+    import subprocess
+    read, write = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1920x1080x24", "-nolisten", "tcp",
+                               "-noreset"],
+                              pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write)
+    number = b""
+    while not number.endswith(b"\n"):  # the number, then its newline: Xvfb dies if the pipe closes between
+        chunk = os.read(read, 32)
+        assert chunk, "Xvfb exited before it served"
+        number += chunk
+    try:
+        yield f":{number.decode().strip()}"
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+        os.close(read)

@@ -23,28 +23,6 @@ NO_INTESTINE = """<mujoco><worldbody><light pos="0 0 1"/>
 pytestmark = pytest.mark.skipif(shutil.which("Xvfb") is None, reason="needs Xvfb (.ci/run installs it)")
 
 
-@pytest.fixture
-def display():
-    """A virtual X display; Xvfb writes its number to the pipe once it serves (-noreset: the server
-    is not regenerated when its last client, a screenshot, leaves)."""
-    read, write = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1920x1080x24", "-nolisten", "tcp",
-                               "-noreset"],
-                              pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    number = b""
-    while not number.endswith(b"\n"):  # the number, then its newline: Xvfb dies if the pipe closes between
-        chunk = os.read(read, 32)
-        assert chunk, "Xvfb exited before it served"
-        number += chunk
-    try:
-        yield f":{number.decode().strip()}"
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
-        os.close(read)
-
-
 def pink(display: str) -> tuple[int, np.ndarray]:
     """The screen, and its count of pixels of the intestine's colour (0.85, 0.45, 0.45) as lit:
     red well above green, green equal to blue."""

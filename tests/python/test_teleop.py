@@ -180,25 +180,6 @@ needs_display_tools = pytest.mark.skipif(shutil.which("Xvfb") is None or shutil.
                                          reason="needs Xvfb and xdotool (.ci/run installs them)")
 
 
-@pytest.fixture
-def display():
-    read, write = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1280x1024x24", "-nolisten", "tcp",
-                               "-noreset"], pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    number = b""
-    while not number.endswith(b"\n"):
-        chunk = os.read(read, 32)
-        assert chunk, "Xvfb exited before it served"
-        number += chunk
-    try:
-        yield f":{number.decode().strip()}"
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
-        os.close(read)
-
-
 def display_environment(display: str) -> dict:
     env = dict(os.environ, DISPLAY=display, LP_NUM_THREADS="1")  # software GL on one core: the other simulates
     env.pop("MUJOCO_GL", None)
