@@ -2,11 +2,15 @@
 
     python -m viscera.teleop.haptic_client --port 47000 --rate 1000 --duration 60 --sweep vigorous --json out.json
 
-It asks the server what it drives (HELLO, INFO), then sends a POSE every period (1 ms at
-1 kHz) and waits, until that period ends, for the FORCE that answers it; a real driver would
-command the force to its motors there. It paces on absolute deadlines (time.perf_counter: a
-short sleep, then a spin for the last SPIN_S), so that lateness does not accumulate, and skips
-periods it has missed entirely rather than sending them in a burst.
+It asks the server what it drives (HELLO, one INFO per tool), then sends a POSE every period
+(1 ms at 1 kHz) and waits, until that period ends, for the FORCE that answers it; a real driver
+would command the force to its motors there. It paces on absolute deadlines (time.perf_counter)
+so that lateness does not accumulate, and skips periods it has missed entirely rather than
+sending them in a burst. It polls for the answer for REPLY_SPIN_S before blocking, and sleeps
+until SPIN_S before the next deadline, then spins: a thread woken from a sleep can be late (on
+a virtual machine's idle core, over 0.5 ms in 0.2 to 0.4 % of wake-ups, measured). With `--spin`
+it spins through whole periods (a core of its own). Its thread asks for real-time scheduling
+(realtime_thread; `--no-realtime` leaves it alone).
 
 It measures (the JSON's keys):
 - rate_hz: POSEs sent per second; deadline_misses: the fraction of periods whose FORCE did not
@@ -18,9 +22,10 @@ It measures (the JSON's keys):
   W(n) = sum over k < n of -F_k . (q_{k+1} - q_k), F_k the force rendered while the device went
   from q_k to q_{k+1} (rad, m; N m, N). A passive coupling keeps W >= 0; its minimum over the run
   is the most energy the coupling ever gave the hand;
-- phases: per phase of the plan, its own W and, for a held phase, the peak-to-peak and mean of
-  each tool's coupling force and tissue force over the phase's last 3 s (an oscillating contact
-  shows there).
+- skipped: periods the client itself woke too late to send in; scheduling: what realtime_thread got;
+- phases: per phase of the plan, its net work W and, for a held phase, the mean, the
+  peak-to-peak and the oscillation (peak-to-peak less a straight-line drift) of each tool's
+  coupling force and tissue force (norm) over the phase's last 3 s.
 
 Only the standard library and numpy: a driver's author can read it as the protocol's example.
 The motion is a plan (`--plan FILE.json`, or the one `--sweep` makes): a list of phases,
@@ -51,7 +56,11 @@ import numpy as np
 from viscera.teleop import protocol
 
 TO_SI = (math.pi / 180.0, math.pi / 180.0, 1.0, math.pi / 180.0, math.pi / 180.0)  # deg -> rad; m stays m
-SPIN_S = 2e-4           # the last part of a wait is spun: sleep overshoots by up to ~100 us
+SPIN_S = 2e-4           # the last part of a period is spun: a sleep's wake-up can be late
+REPLY_SPIN_S = 2e-4     # the answer is polled for this long before blocking: no wake-up to wait for
+                        # (spins cost the simulation a core's time: measured, 0.4 + 0.3 ms put 8 %
+                        # of its ticks behind real time, 0.2 + 0.2 ms 1 %, with no more misses;
+                        # and the kernel throttles a real-time thread that never sleeps)
 HELLO_TIMEOUT_S = 10.0  # the server may still be starting
 HOLD_WINDOW_S = 3.0     # a held phase's force is judged over its last 3 s
 SWEEP_FREQUENCIES_HZ = (0.7, 0.53, 0.41, 0.3, 1.1)  # pitch, yaw, depth, roll, jaw: incommensurate
@@ -84,7 +93,8 @@ def realtime_thread(priority: int = REALTIME_PRIORITY, fifo: bool = True) -> str
     number = SCHED_SETATTR.get(platform.machine())
     if number is None:
         return "default"
-    # struct sched_attr (56 bytes): size, policy (SCHED_OTHER), flags, nice, priority, runtime (the slice), deadline, period, util min, max
+    # struct sched_attr (56 bytes): size, policy (SCHED_OTHER), flags, nice, priority, runtime (the
+    # slice), deadline, period, utilisation min and max
     attr = ctypes.create_string_buffer(struct.pack("<IIQiIQQQII", 56, 0, 0, os.getpriority(os.PRIO_PROCESS, tid),
                                                    0, SLICE_NS, 0, 0, 0, 0))
     libc = ctypes.CDLL(None, use_errno=True)
@@ -226,18 +236,20 @@ class Motion:
 
 
 def run(host: str, port: int, rate_hz: float, plan: list[dict] | None = None, sweep: str = "vigorous",
-        duration_s: float = 60.0, progress=None, realtime: bool = True) -> dict:
+        duration_s: float = 60.0, progress=None, realtime: bool = True, spin: bool = False) -> dict:
     """Drive the server with a plan (or the `sweep`) at `rate_hz`; the measurements (module doc).
     `progress(seconds)` is called about once a second. `realtime`: run this thread real-time
     (realtime_thread) if the system lets it."""
-    scheduling = realtime_thread() if realtime else "default"
+    # a spinning thread must not be real-time: the kernel throttles it for 50 ms each second
+    scheduling = realtime_thread(fifo=not spin) if realtime else "default"
     client = Client(host, port)
     try:
         info = client.hello()
         if info.get("version") != protocol.VERSION:
-            raise RuntimeError(f"the server speaks protocol version {info.get('version')}, this client {protocol.VERSION}")
+            raise RuntimeError(f"the server speaks protocol version {info.get('version')}, "
+                               f"this client {protocol.VERSION}")
         motion = Motion(plan if plan is not None else sweep_plan(info, sweep, duration_s), info)
-        result = _drive(client, info, motion, rate_hz, progress)
+        result = _drive(client, info, motion, rate_hz, progress, spin)
         result["scheduling"] = scheduling
         return result
     finally:
@@ -245,7 +257,7 @@ def run(host: str, port: int, rate_hz: float, plan: list[dict] | None = None, sw
         client.close()
 
 
-def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress) -> dict:
+def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress, spin: bool) -> dict:
     period = 1.0 / rate_hz
     periods = int(round(motion.duration_s * rate_hz))
     indices = [tool["index"] for tool in info["tools"]]
@@ -270,6 +282,10 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress)
         now = time.perf_counter()
         if now >= deadline:  # this whole period is gone: skip it, do not send a burst
             skipped += 1
+            phase_of[k] = motion(now - start)[0]
+            for j, i in enumerate(indices):  # the device went on rendering the last force
+                coupling[k, j], tissue[k, j] = force[i], tissue_now[i]
+            work[k] = energy
             k += 1
             continue
         number, poses = motion(now - start)
@@ -285,7 +301,8 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress)
             remaining = deadline - time.perf_counter()
             if remaining <= 0.0:
                 break
-            reply = client.receive(remaining)
+            polling = spin or time.perf_counter() - now < REPLY_SPIN_S
+            reply = client.receive(0.0 if polling else remaining)
             if not isinstance(reply, protocol.Force):
                 continue
             received = time.perf_counter()
@@ -310,7 +327,7 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress)
             next_report += 1.0
         k += 1
         wait = deadline - time.perf_counter()  # the next POSE goes at this deadline
-        if wait > SPIN_S:
+        if wait > SPIN_S and not spin:
             time.sleep(wait - SPIN_S)
         while time.perf_counter() < deadline:
             pass
@@ -344,8 +361,9 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress)
         rows = np.flatnonzero(phase_of == number)
         if rows.size == 0:
             continue
+        before = work[rows[0] - 1] if rows[0] > 0 else 0.0
         summary = {"kind": entry["kind"], "duration_s": entry["end"] - entry["begin"],
-                   "passivity_min_j": float((work[rows] - (work[rows[0] - 1] if rows[0] > 0 else 0.0)).min()),
+                   "work_j": float(work[rows[-1]] - before),  # the hand's net energy into the coupling
                    "deadline_misses": float(1.0 - answered_in_time[rows].mean())}
         if entry["kind"] == "hold":
             last = rows[rows >= rows[-1] - int(HOLD_WINDOW_S * rate_hz)]
@@ -355,10 +373,20 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress)
                 summary["tools"][names[i]] = {
                     "coupling_mean": [float(v) for v in c.mean(axis=0)],
                     "coupling_peak_to_peak": [float(v) for v in np.ptp(c, axis=0)],
+                    "coupling_oscillation": [float(v) for v in np.ptp(_detrended(c), axis=0)],
                     "tissue_force_mean_n": float(t.mean()),
-                    "tissue_force_peak_to_peak_n": float(np.ptp(t))}
+                    "tissue_force_peak_to_peak_n": float(np.ptp(t)),
+                    "tissue_force_oscillation_n": float(np.ptp(_detrended(t)))}
         result["phases"].append(summary)
     return result
+
+
+def _detrended(values: np.ndarray) -> np.ndarray:
+    """`values` (rows in time) less their straight-line fit: a slow drift (the bowel settling
+    under a held tool) removed, an oscillation left."""
+    t = np.arange(len(values), dtype=float)
+    fit = np.polynomial.polynomial.polyfit(t, values, 1)
+    return values - np.polynomial.polynomial.polyval(t, fit).T.reshape(values.shape)
 
 
 def _ms(values: np.ndarray, percentile: float) -> float | None:
@@ -376,6 +404,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plan", help="a plan JSON file (a list of phases), instead of --sweep")
     parser.add_argument("--json", help="write the measurements here")
     parser.add_argument("--trace", help="write each period's send time and latency here (.npz)")
+    parser.add_argument("--spin", action="store_true", help="busy-wait the whole period (a core of its own)")
     parser.add_argument("--no-realtime", action="store_true", help="leave this process's scheduling alone")
     args = parser.parse_args(argv)
     if not args.rate > 0 or not args.duration > 0:
@@ -390,7 +419,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"haptic_client: --plan {args.plan}: {error}", file=sys.stderr)
             return 2
     try:
-        result = run(args.host, args.port, args.rate, plan, args.sweep, args.duration, realtime=not args.no_realtime)
+        result = run(args.host, args.port, args.rate, plan, args.sweep, args.duration,
+                     realtime=not args.no_realtime, spin=args.spin)
     except (TimeoutError, RuntimeError, ValueError) as error:
         print(f"haptic_client: {error}", file=sys.stderr)
         return 1

@@ -33,7 +33,8 @@ tool, whatever the HELLO's version field, so that a client learns the server's v
 | 12 | length | u32 | bytes of JSON that follow |
 | 16 | json | length bytes | see below |
 
-The JSON: `{"version": 1, "period_s": 0.01, "silence_s": 0.5, "coordinates": "pitch deg,yaw deg,depth m,roll deg,jaw deg",
+The JSON: `{"version": 1, "period_s": 0.01, "silence_s": 0.5,
+"coordinates": "pitch deg,yaw deg,depth m,roll deg,jaw deg",
 "tool_count": 2, "tool": {"index": 0, "name": "grasper", "kp": [20, 20, 400, 2, 0.5],
 "lower": [...], "upper": [...], "initial": [...]}}`: `period_s` is the server's control period T
 (s: the tool state the forces come from is this old at most, and the coupling's damping is
@@ -47,7 +48,7 @@ as each tool's absolute target. Tools left out hold their target.
 
 | offset | field | type | unit |
 |---|---|---|---|
-| 8 | sequence | u32 | increases by at least 1 per POSE (wraps at 2^32) |
+| 8 | sequence | u32 | increases by at least 1 per POSE (wraps at 2^32; any start after a silence) |
 | 12 | client_time | f64 | s, the client's monotonic clock when sent |
 | 20 | count | u32 | n, tools that follow |
 | 24 + 44 i | tool | u32 | the tool's index (INFO) |
@@ -66,7 +67,7 @@ it arrives, one tool entry per tool of the POSE, in its order.
 | 12 | client_time | f64 | s, the POSE's (round-trip latency = now - client_time) |
 | 20 | sim_time | f64 | s, simulated time of the tool state the forces come from |
 | 28 | count | u32 | n |
-| 32 | dropped_invalid | u32 | messages dropped so far: malformed, oversized, bad version, NaN, out of range, unknown tool |
+| 32 | dropped_invalid | u32 | messages dropped so far: malformed, oversized, NaN, out of range, unknown tool |
 | 36 | dropped_stale | u32 | POSEs dropped so far: sequence not newer than the newest accepted |
 | 40 | dropped_flood | u32 | POSEs dropped so far: more than 8 in one millisecond |
 | 44 | dropped_busy | u32 | POSEs dropped so far: another client drives the tools |
@@ -156,7 +157,8 @@ class Info:
 class Pose:
     sequence: int
     client_time_s: float
-    tools: tuple[tuple[int, tuple[float, float, float, float, float]], ...]  # (index, pitch deg, yaw deg, depth m, roll deg, jaw deg)
+    # (index, (pitch deg, yaw deg, depth m, roll deg, jaw deg)) per tool
+    tools: tuple[tuple[int, tuple[float, float, float, float, float]], ...]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -216,11 +218,11 @@ def pack_force(sequence: int, client_time_s: float, sim_time_s: float, tools, dr
     tools = list(tools)
     if len(tools) > MAX_TOOLS:
         raise ValueError(f"a FORCE carries at most {MAX_TOOLS} tools, not {len(tools)}")
-    parts = [FORCE_HEAD.pack(MAGIC, VERSION, FORCE, _u32(sequence), float(client_time_s), float(sim_time_s),
-                             len(tools), *(_u32(d) for d in dropped))]
+    fields = [MAGIC, VERSION, FORCE, _u32(sequence), float(client_time_s), float(sim_time_s), len(tools),
+              *(_u32(d) for d in dropped)]
     for tool, flags, coupling, tissue in (dataclasses.astuple(t) if isinstance(t, ToolForce) else t for t in tools):
-        parts.append(FORCE_TOOL.pack(int(tool), int(flags), *map(float, coupling), *map(float, tissue)))
-    return b"".join(parts)
+        fields += (int(tool), int(flags), *coupling, *tissue)
+    return FORCE_ALL[len(tools)].pack(*fields)
 
 
 def pack_bye(sequence: int) -> bytes:
@@ -237,11 +239,17 @@ def check_values(values) -> str | None:
     return None
 
 
-def unpack(data, size: int | None = None) -> Message:
+# one struct per tool count: a POSE's or FORCE's tools in one unpack or pack call (the server's hot path)
+POSE_TOOLS = [struct.Struct("<" + "I5d" * n) for n in range(MAX_TOOLS + 1)]
+FORCE_ALL = [struct.Struct(FORCE_HEAD.format + "II8d" * n) for n in range(MAX_TOOLS + 1)]
+A, D = ANGLE_LIMIT_DEG, DEPTH_LIMIT_M
+
+
+def unpack(data, size: int | None = None, accept=tuple(TYPES)) -> Message:
     """The message in the first `size` bytes of `data` (bytes, bytearray or memoryview); a
     ProtocolError (with its `kind`: oversized, short, magic, version, type, count, length, json,
-    nan, range) when it is not one. Values are checked here (finite, in bounds); whether a tool
-    index exists is the server's to check."""
+    nan, range) when it is not one, or not of a type in `accept`. Values are checked here
+    (finite, in bounds); whether a tool index exists is the server's to check."""
     size = len(data) if size is None else int(size)
     if size > MAX_MESSAGE_BYTES:
         raise ProtocolError("oversized", f"{size} bytes, over {MAX_MESSAGE_BYTES}")
@@ -250,8 +258,8 @@ def unpack(data, size: int | None = None) -> Message:
     magic, version, kind = HEADER.unpack_from(data, 0)
     if magic != MAGIC:
         raise ProtocolError("magic", f"magic {bytes(magic)!r}, not {MAGIC!r}")
-    if kind not in TYPES:
-        raise ProtocolError("type", f"type {kind} unknown")
+    if kind not in accept:
+        raise ProtocolError("type", f"type {kind} {'unknown' if kind not in TYPES else 'not expected here'}")
     if version != VERSION and kind != HELLO:
         raise ProtocolError("version", f"version {version}, this end speaks {VERSION}")
     if kind == POSE:
@@ -264,13 +272,16 @@ def unpack(data, size: int | None = None) -> Message:
             raise ProtocolError("length", f"POSE of {count} tools in {size} bytes")
         if not math.isfinite(client_time):
             raise ProtocolError("nan", "POSE client_time is not finite")
+        flat = POSE_TOOLS[count].unpack_from(data, POSE_HEAD.size)
         tools = []
-        for i in range(count):
-            index, *values = POSE_TOOL.unpack_from(data, POSE_HEAD.size + i * POSE_TOOL.size)
-            why = check_values(values)
-            if why is not None:
-                raise ProtocolError(why, f"POSE tool {index}: {values} {'not finite' if why == 'nan' else 'beyond bounds'}")
-            tools.append((index, tuple(values)))
+        for i in range(0, 6 * count, 6):
+            index, pitch, yaw, depth, roll, jaw = flat[i:i + 6]
+            # abs(NaN) <= x is False: one comparison chain rejects NaN, inf and garbage
+            if not (abs(pitch) <= A and abs(yaw) <= A and abs(depth) <= D and abs(roll) <= A and abs(jaw) <= A):
+                why = check_values(flat[i + 1:i + 6])
+                what = "not finite" if why == "nan" else "beyond bounds"
+                raise ProtocolError(why, f"POSE tool {index}: {flat[i + 1:i + 6]} {what}")
+            tools.append((index, (pitch, yaw, depth, roll, jaw)))
         return Pose(sequence, client_time, tuple(tools))
     if kind == HELLO:
         if size != HELLO_MSG.size:
