@@ -147,3 +147,29 @@ def test_actions_of_another_task_are_refused_before_stepping(tmp_path):
     foreign = rec.Recording(**{**recording.__dict__, "task": "clear_area"})
     with pytest.raises(rec.RecordingError, match="takes 9"):
         rec.replay(foreign)
+
+
+def test_record_and_replay_commands_agree_and_end_with_the_verdict(tmp_path):
+    """`record` prints and stores the final state's digest; `replay --json` writes the same beside
+    the score; both end with the verdict line; --trajectory writes a file per tool."""
+    import subprocess
+    import sys
+    out = tmp_path / "episode.npz"
+    recorded = subprocess.run([sys.executable, "-m", "viscera", "record", "clear_area", "--seed", "1003", "--policy",
+                               "random", "--out", str(out), "--time-limit", "1", "--quiet"],
+                              capture_output=True, text=True, timeout=300)
+    assert recorded.returncode == 0, recorded.stderr
+    lines = recorded.stdout.strip().splitlines()
+    assert lines[-1].startswith("success: no (clear_area: ")
+    digest = next(line.split()[-1] for line in lines if line.startswith("final state"))
+    assert rec.load(out).final_state_sha256 == digest
+    score_file, trajectory = tmp_path / "score.json", tmp_path / "motion.json"
+    replayed = subprocess.run([sys.executable, "-m", "viscera", "replay", str(out), "--json", str(score_file),
+                               "--trajectory", str(trajectory), "--quiet"], capture_output=True, text=True, timeout=300)
+    assert replayed.returncode == 0, replayed.stderr
+    assert replayed.stdout.strip().splitlines()[-1] == lines[-1]
+    score = json.loads(score_file.read_text())
+    assert score["final_state_sha256"] == digest and score["success"] is False
+    assert set(score["tools"]) == {"grasper", "retractor"} and "tissue" in score
+    for tool in ("grasper", "retractor"):
+        assert ToolTrajectory.from_file(str(tmp_path / f"motion_{tool}.json")).duration == pytest.approx(1.0)
