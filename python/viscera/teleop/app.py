@@ -149,17 +149,16 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
     if record and result.recording is not None:
         result.recording.save(record)
         print(f"recording        {record} ({result.ticks} ticks)")
-    report(result)
+    report(result, task)
     return result.score or {}
 
 
-def report(result) -> None:
-    """The score's headline figures, then the verdict line."""
-    score = result.score or {}
+def report(result, task: str) -> None:
+    """How the session ended, the score, then the verdict line (as record and replay end)."""
+    from viscera.recording import verdict
     print(f"ended            {result.ended} after {result.simulated_s:.2f} s; behind real time on "
           f"{result.ticks_behind} of {result.ticks} ticks ({result.lost_s:.2f} s lost)")
-    for tool, values in score.get("tools", {}).items():
-        print(f"{tool:16s} path {values['path_length_m']:.3f} m, angular path {values['angular_path_deg']:.0f} deg, "
-              f"peak force {values['peak_force_n']:.2f} N, idle {values['idle_s']:.1f} s, "
-              f"out of view {values['out_of_view_s']:.1f} s")
-    print(f"success: {'yes' if result.success else 'no'} ({result.ended})", flush=True)
+    if result.score:
+        for line in assess.summary_lines(result.score):
+            print(line)
+    print(verdict(task, result.success), flush=True)

@@ -53,6 +53,7 @@ import time
 
 import numpy as np
 
+from viscera import cli
 from viscera.teleop import protocol
 
 TO_SI = (math.pi / 180.0, math.pi / 180.0, 1.0, math.pi / 180.0, math.pi / 180.0)  # deg -> rad; m stays m
@@ -396,11 +397,13 @@ def _ms(values: np.ndarray, percentile: float) -> float | None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m viscera.teleop.haptic_client",
                                      description="Drive viscera's socket device like a haptic device, and measure it.")
-    parser.add_argument("--host", default="127.0.0.1")
-    parser.add_argument("--port", type=int, default=protocol.PORT)
-    parser.add_argument("--rate", type=float, default=1000.0, help="POSEs per second (default 1000)")
-    parser.add_argument("--duration", type=float, default=60.0, help="s, of the --sweep (default 60)")
-    parser.add_argument("--sweep", choices=("vigorous", "hold"), default="vigorous")
+    parser.add_argument("--host", default="127.0.0.1", help="the server's address (default 127.0.0.1)")
+    parser.add_argument("--port", type=cli.port, default=protocol.PORT, help=f"the server's UDP port (default {protocol.PORT})")
+    parser.add_argument("--rate", type=cli.positive_float_up_to(1e5, "POSEs per s"), default=1000.0,
+                        help="POSEs per second (default 1000)")
+    parser.add_argument("--duration", type=cli.duration, default=60.0, help="s, of the --sweep (default 60)")
+    parser.add_argument("--sweep", choices=("vigorous", "hold"), default="vigorous",
+                        help="vigorous: every coordinate of every tool in sines; hold: the handle held still")
     parser.add_argument("--plan", help="a plan JSON file (a list of phases), instead of --sweep")
     parser.add_argument("--json", help="write the measurements here")
     parser.add_argument("--trace", help="write each period's send time and latency here (.npz)")
