@@ -222,13 +222,17 @@ def print_score(score: dict) -> None:
         print(line)
 
 
+def ticks(count: int) -> str:
+    return f"{count} tick{'s' * (count != 1)}"
+
+
 def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool) -> dict:
     from viscera import recording
     on_step, score = _trace_and_score(task)
     made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step)
     made.save(out)
     result = score()
-    print(f"recording        {out} ({task}, seed {seed}, {policy} policy, {made.steps} ticks of "
+    print(f"recording        {out} ({task}, seed {seed}, {policy} policy, {ticks(made.steps)} of "
           f"{made.control_timestep_s * 1e3:g} ms)")
     print_score(result)
     print(f"final state      sha256 {made.final_state_sha256}")
@@ -261,7 +265,7 @@ def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str 
                         f"recorded {made.final_state_sha256[:16]}...); it was recorded with "
                         f"viscera {made.versions.get('viscera', '?')}, mujoco {made.versions.get('mujoco', '?')}")
     values = score()
-    print(f"replayed         {path} ({made.task}, seed {made.seed}, {made.policy} policy, {result.steps} ticks): "
+    print(f"replayed         {path} ({made.task}, seed {made.seed}, {made.policy} policy, {ticks(result.steps)}): "
           "bit-identical")
     print_score(values)
     print(f"final state      sha256 {result.final_state_sha256}")
@@ -316,9 +320,9 @@ def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None
     from viscera.task_registry import TASKS  # the names, without loading dm_control
     parser.add_argument("task", choices=tuple(TASKS), metavar="TASK", help=f"one of {', '.join(TASKS)}")
     if seed_required:
-        parser.add_argument("--seed", type=cli.natural_int, required=True, help="the episode's seed")
+        parser.add_argument("--seed", type=cli.seed, required=True, help="the episode's seed (0 to 2^32 - 1)")
     else:
-        parser.add_argument("--seed", type=cli.natural_int, default=0, help="the episode's seed (default 0)")
+        parser.add_argument("--seed", type=cli.seed, default=0, help="the episode's seed (0 to 2^32 - 1, default 0)")
     parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s (default: the task's)")
 
 
@@ -327,6 +331,9 @@ def build_parser() -> argparse.ArgumentParser:
                                "Run an MJCF scene with intestines and print a summary, open it in MuJoCo's "
                                "viewer, drive a task's tools yourself (teleop), record an episode and replay it "
                                "with its score.")
+    from viscera.recording import versions
+    parser.add_argument("--version", action="version",
+                        version="viscera {viscera}, mujoco {mujoco}".format(**versions()))
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run_parser = commands.add_parser("run", help="simulate an MJCF scene and print a summary",
                                      description="Simulate an MJCF scene and print a summary. Every option is "
@@ -410,6 +417,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "view":
             view(args.scene)
         elif args.command == "teleop":
+            if args.port is not None and args.device != "socket":  # else silently unused
+                raise UserError(f"--port is the socket device's; it needs --device socket, not {args.device}",
+                                status=2)
             from viscera.teleop.app import teleop
             teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit)
         elif args.command == "record":

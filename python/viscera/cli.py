@@ -123,6 +123,17 @@ def natural_int(text: str) -> int:
     return value
 
 
+MAX_SEED = 2 ** 32 - 1  # numpy's RandomState, which the tasks draw their episodes from, takes no more
+
+
+def seed(text: str) -> int:
+    """argparse type: a random seed, an integer from 0 to 2^32 - 1."""
+    value = natural_int(text)
+    if value > MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be at most 2^32 - 1 = {MAX_SEED}, got {text!r}")
+    return value
+
+
 def output_file(*suffixes: str) -> Callable[[str], str]:
     """argparse type: a file to write, ending in one of `suffixes`, in a folder that exists and
     is writable; checked when the command line is read, not after a long run."""
@@ -167,7 +178,9 @@ class OneLineParser(argparse.ArgumentParser):
         return [option for action in self._actions for option in action.option_strings if option.startswith("--")]
 
     def suggest(self, message: str) -> str:
-        """`message` with a "did you mean" for the misspelled word it names, where one is close."""
+        """`message` with a "did you mean" for the misspelled word it names, where one is close,
+        and for a misspelled option that argparse's message does not name (it took the option for
+        a value, or stopped at a missing argument first)."""
         import difflib
         import re
         unknown = re.match(r"unrecognized arguments: (.*)", message)
@@ -176,29 +189,43 @@ class OneLineParser(argparse.ArgumentParser):
             for word in unknown.group(1).split():
                 option = word.split("=", 1)[0]
                 if option.startswith("--"):
-                    close = difflib.get_close_matches(option, self.options(), n=1, cutoff=0.6)
-                    hints.append(f"{option}: did you mean {close[0]}?" if close else f"{option}: no such option")
+                    hints.append(f"{option}: {self.close_option(option)}")
                 elif word.startswith("-"):
                     hints.append(f"{word}: no such option")
             if hints:
                 return f"unrecognized arguments: {unknown.group(1)} ({'; '.join(hints)}; --help lists them)"
             return message
-        if message.startswith("the following arguments are required"):  # perhaps given, misspelled
-            known = self.options()
-            for word in getattr(self, "_words", []):
-                option = word.split("=", 1)[0]
-                if option.startswith("--") and option not in known:
-                    close = difflib.get_close_matches(option, known, n=1, cutoff=0.6)
-                    if close:
-                        return f"{message} ({option}: did you mean {close[0]}?)"
-            return message
-        choice = re.match(r"argument (\S+): invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        # Python 3.12.8 and later name the choices unquoted, earlier versions quoted
+        choice = re.match(r"argument (\S+): invalid choice: '?(.*?)'? \(choose from (.*)\)$", message)
         if choice:
-            choices = re.findall(r"'([^']*)'", choice.group(3))
+            listed = choice.group(3)
+            choices = re.findall(r"'([^']*)'", listed) if listed.startswith("'") else listed.split(", ")
             close = difflib.get_close_matches(choice.group(2), choices, n=1, cutoff=0.6)
             hint = f"did you mean {close[0]!r}? " if close else ""
-            return f"argument {choice.group(1)}: invalid choice {choice.group(2)!r}: {hint}choose from {', '.join(choices)}"
-        return message
+            message = (f"argument {choice.group(1)}: invalid choice {choice.group(2)!r}: {hint}"
+                       f"choose from {', '.join(choices)}")
+        option = self.unknown_option()
+        return f"{message} ({option}: {self.close_option(option)})" if option else message
+
+    def close_option(self, option: str) -> str:
+        """"did you mean --x?" for the option closest to `option`, or "no such option"."""
+        import difflib
+        close = difflib.get_close_matches(option, self.options(), n=1, cutoff=0.6) if option.startswith("--") else []
+        return f"did you mean {close[0]}?" if close else "no such option"
+
+    def unknown_option(self) -> str | None:
+        """The first word given that looks like an option this parser does not have (not a
+        negative number, not an abbreviation of one it has)."""
+        import re
+        known = self.options() + ["-h"]
+        for word in getattr(self, "_words", []):
+            option = word.split("=", 1)[0]
+            if word == "--":
+                return None  # what follows is positional
+            if option.startswith("-") and option != "-" and not re.fullmatch(r"-[\d.]+(e-?\d+)?", option) \
+                    and not any(k.startswith(option) for k in known):
+                return option
+        return None
 
 
 def check_unknown(parser: argparse.ArgumentParser, unknown: list[str]) -> None:

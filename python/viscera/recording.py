@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import functools
 import hashlib
 import json
 import os
@@ -39,6 +40,8 @@ import numpy as np
 FORMAT = "viscera-recording"
 VERSION = 1
 POLICIES = ("scripted", "random", "idle")
+# what every recording's meta holds (created and the versions are informative only)
+REQUIRED = ("task", "seed", "policy", "control_timestep_s", "time_limit_s", "steps", "success", "final_state_sha256")
 
 
 class RecordingError(ValueError):
@@ -77,18 +80,21 @@ class Recording:
         try:
             with os.fdopen(handle, "wb") as file:
                 np.savez_compressed(file, meta=meta, actions=np.asarray(self.actions, dtype=np.float64))
+            mask = os.umask(0o022)
+            os.umask(mask)
+            os.chmod(temporary, 0o666 & ~mask)  # as a plain open() would make it: mkstemp's file is private
             os.replace(temporary, path)
         except BaseException:
             os.unlink(temporary)
             raise
 
 
-def _versions() -> dict:
+def versions() -> dict:
     from importlib import metadata
     try:
         version = metadata.version("viscera")
     except metadata.PackageNotFoundError:
-        version = "source"
+        version = "source"  # run from a checkout, not installed
     return {"viscera": version, "mujoco": mujoco.__version__}
 
 
@@ -105,6 +111,10 @@ def load(path: str | os.PathLike) -> Recording:
     if os.path.isdir(path):
         raise RecordingError(f"{name}: a folder, not a recording")
     if not zipfile.is_zipfile(path):
+        with open(path, "rb") as file:
+            start = file.read(4)
+        if start == b"PK\x03\x04":  # a zip's first entry, its directory at the end gone: cut short
+            raise RecordingError(f"{name}: truncated (the .npz file ends before its zip directory)")
         raise RecordingError(f"{name}: not a viscera recording (not an .npz file)")
     try:
         with np.load(path, allow_pickle=False) as archive:
@@ -129,7 +139,7 @@ def load(path: str | os.PathLike) -> Recording:
     if version > VERSION:
         raise RecordingError(f"{name}: format version {version} is newer than this viscera reads ({VERSION}): "
                              "upgrade viscera")
-    for key in ("task", "seed", "policy", "control_timestep_s", "time_limit_s"):
+    for key in REQUIRED:
         if key not in meta:
             raise RecordingError(f"{name}: its meta has no {key!r}")
     if actions is None:
@@ -144,16 +154,26 @@ def load(path: str | os.PathLike) -> Recording:
         value = meta[key]
         if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value <= 0:
             raise RecordingError(f"{name}: {key} {value!r} is not a positive number")
+    if not isinstance(meta["policy"], str) or not meta["policy"]:
+        raise RecordingError(f"{name}: policy {meta['policy']!r} is not a name")
+    if not isinstance(meta["success"], bool):
+        raise RecordingError(f"{name}: success {meta['success']!r} is not true or false")
+    digest = meta["final_state_sha256"]
+    if not isinstance(digest, str) or len(digest) != 64 or not set(digest) <= set("0123456789abcdef"):
+        raise RecordingError(f"{name}: final_state_sha256 {digest!r} is not a SHA-256 (64 hex digits)")
     if actions.dtype != np.float64 or actions.ndim != 2:
         raise RecordingError(f"{name}: actions must be a 2-D float64 array, got {actions.dtype} {actions.shape}")
+    width = action_width(task)
+    if actions.shape[1] != width:
+        raise RecordingError(f"{name}: actions of {actions.shape[1]} values per tick, the task {task!r} takes {width}")
     if not np.all(np.isfinite(actions)):
         raise RecordingError(f"{name}: actions hold NaN or infinite values")
-    expected = meta.get("steps")
-    if expected is not None and expected != len(actions):
-        raise RecordingError(f"{name}: meta says {expected} steps, the actions hold {len(actions)}")
+    expected = meta["steps"]
+    if not isinstance(expected, int) or isinstance(expected, bool) or expected != len(actions):
+        raise RecordingError(f"{name}: meta says {expected!r} steps, the actions hold {len(actions)}")
     versions = {k: meta[k] for k in ("viscera", "mujoco") if k in meta}
     return Recording(task, seed, str(meta["policy"]), float(meta["control_timestep_s"]), float(meta["time_limit_s"]),
-                     actions, bool(meta.get("success", False)), str(meta.get("final_state_sha256", "")),
+                     actions, meta["success"], digest,
                      meta.get("policy_seed"), str(meta.get("created", "")), versions)
 
 
@@ -168,6 +188,12 @@ def final_state_sha256(physics) -> str:
     state = np.empty(mujoco.mj_stateSize(model, kind), dtype=np.float64)
     mujoco.mj_getState(model, data, state, kind)
     return hashlib.sha256(state.tobytes()).hexdigest()
+
+
+@functools.cache
+def action_width(task: str) -> int:
+    """The length of `task`'s action (its tools' actuators); its scene is built once per process."""
+    return int(load_task(task, 0).action_spec().shape[0])
 
 
 def load_task(task: str, seed: int | None, control_timestep_s: float | None = None,
@@ -187,7 +213,7 @@ class Recorder:
     def __init__(self, task: str, seed: int | None, policy: str, control_timestep_s: float, time_limit_s: float,
                  policy_seed: int | None = None):
         self.recording = Recording(task, seed, policy, float(control_timestep_s), float(time_limit_s),
-                                   np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=_versions())
+                                   np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=versions())
         self._actions: list[np.ndarray] = []
 
     def append(self, action) -> None:

@@ -127,12 +127,25 @@ def test_run_refuses_a_bad_option_in_one_line(tmp_path, option, value, names):
     (["teleop", "clear_area", "--device", "mouse"], ["mouse", "keyboard, gamepad, spacemouse, socket"]),
     (["teleop", "clear_area", "--port", "70000"], ["--port", "70000"]),
     (["view"], ["required: scene"]),
+    (["-x"], ["required: COMMAND", "-x: no such option"]),
+    (["record", "clear_area", "--seed", "4294967296", "--policy", "idle", "--out", "a.npz"], ["--seed", "2^32 - 1"]),
+    (["record", "clear_area", "--policy", "idle", "--out", "a.npz", "-s", "1"],
+     ["required: --seed", "-s: no such option"]),
+    (["replay", "--jsn", "{tmp}/x.json"], ["--jsn: did you mean --json?"]),  # argparse took x.json for the recording
+    (["teleop", "clear_area", "--port", "47001"], ["--port", "--device socket"]),
+    (["teleop", "clear_area", "--time-limit", "nan"], ["--time-limit", "nan"]),
+    (["view", "x.xml", "--camera", "0"], ["--camera: no such option"]),
 ])
 def test_every_command_refuses_a_mistake_in_one_line(tmp_path, args, names):
     (tmp_path / "x.npz").write_bytes(b"")
     result = viscera(*[a.format(tmp=tmp_path) for a in args], cwd=tmp_path)
     assert_one_line(result, *names)
     assert result.returncode == 2
+
+
+def test_version():
+    result = viscera("--version")
+    assert result.returncode == 0 and re.fullmatch(r"viscera \S+, mujoco \d+\.\d+\.\d+\n", result.stdout), result
 
 
 def test_run_lists_the_cameras_for_an_unknown_one(tmp_path):

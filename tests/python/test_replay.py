@@ -101,7 +101,8 @@ def bad(tmp_path, name: str, meta: dict | None = None, actions=None, raw: bytes 
 
 def good_meta(**change) -> dict:
     meta = {"format": rec.FORMAT, "version": rec.VERSION, "task": "grasp_lift", "seed": 1, "policy": "idle",
-            "control_timestep_s": 0.02, "time_limit_s": 1.0, "steps": 3}
+            "control_timestep_s": 0.02, "time_limit_s": 1.0, "steps": 3, "success": False,
+            "final_state_sha256": "0" * 64}
     meta.update(change)
     return meta
 
@@ -115,7 +116,7 @@ def test_bad_recordings_are_refused_in_one_line(tmp_path):
         "missing": (tmp_path / "nothing.npz", "no such file"),
         "folder": (tmp_path, "a folder"),
         "text": (bad(tmp_path, "text.npz", raw=b"hello, not a zip\n"), "not an .npz"),
-        "truncated": (bad(tmp_path, "cut.npz", raw=whole[: len(whole) // 2]), "not an .npz"),
+        "truncated": (bad(tmp_path, "cut.npz", raw=whole[: len(whole) // 2]), "truncated"),
         "foreign": (bad(tmp_path, "foreign.npz", actions=five), "no 'meta'"),
         "other format": (bad(tmp_path, "other.npz", good_meta(format="lerobot"), five), "not a viscera recording"),
         "newer": (bad(tmp_path, "newer.npz", good_meta(version=rec.VERSION + 1), five), "newer"),
@@ -127,7 +128,15 @@ def test_bad_recordings_are_refused_in_one_line(tmp_path):
         "steps": (bad(tmp_path, "steps.npz", good_meta(steps=9), five), "9 steps"),
         "shape": (bad(tmp_path, "shape.npz", good_meta(), np.zeros(3)), "2-D"),
         "key": (bad(tmp_path, "key.npz", {k: v for k, v in good_meta().items() if k != "policy"}, five), "'policy'"),
+        "no digest": (bad(tmp_path, "nodigest.npz", {k: v for k, v in good_meta().items()
+                                                       if k != "final_state_sha256"}, five), "'final_state_sha256'"),
+        "digest": (bad(tmp_path, "digest.npz", good_meta(final_state_sha256="abc"), five), "64 hex digits"),
+        "success": (bad(tmp_path, "success.npz", good_meta(success="yes"), five), "true or false"),
+        "width": (bad(tmp_path, "width.npz", good_meta(), np.zeros((3, 9))), "takes 5"),  # clear_area's actions
     }
+    garbled = tmp_path / "garbled.npz"
+    np.savez(garbled, meta=np.frombuffer(b"{not json", dtype=np.uint8), actions=five)
+    cases["meta not JSON"] = (garbled, "not JSON")
     # a flipped byte inside the compressed actions: the stream breaks, or the zip's CRC catches it
     for offset in (40, 100):
         corrupt = bytearray(whole)
@@ -173,3 +182,52 @@ def test_record_and_replay_commands_agree_and_end_with_the_verdict(tmp_path):
     assert set(score["tools"]) == {"grasper", "retractor"} and "tissue" in score
     for tool in ("grasper", "retractor"):
         assert ToolTrajectory.from_file(str(tmp_path / f"motion_{tool}.json")).duration == pytest.approx(1.0)
+
+
+def test_the_replay_command_refuses_a_bad_recording_in_one_line(tmp_path):
+    """A file that is not a recording, and one whose replay ends elsewhere than recorded: one
+    stderr line each naming the file and what is wrong, status 1, before or instead of a score."""
+    import subprocess
+    import sys
+    good = rec.record("grasp_lift", seed=2, policy="random", time_limit_s=0.2)
+    good.save(tmp_path / "good.npz")
+    whole = (tmp_path / "good.npz").read_bytes()
+    other = rec.Recording(**{**good.__dict__, "final_state_sha256": "f" * 64})  # as if recorded on another build
+    other.save(tmp_path / "other.npz")
+    cases = {
+        bad(tmp_path, "cut.npz", raw=whole[:-30]): "truncated",
+        bad(tmp_path, "text.npz", raw=b"hello\n"): "not an .npz",
+        bad(tmp_path, "newer.npz", good_meta(version=rec.VERSION + 1), np.zeros((3, 5))): "newer",
+        tmp_path / "other.npz": "the replay ended in another state",
+    }
+    for path, words in cases.items():
+        result = subprocess.run([sys.executable, "-m", "viscera", "replay", str(path), "--quiet"],
+                                capture_output=True, text=True, timeout=300)
+        lines = result.stderr.splitlines()
+        assert result.returncode == 1 and len(lines) == 1, (path, result.stderr)
+        assert lines[0].startswith("python -m viscera replay: error: ") and str(path) in lines[0], lines[0]
+        assert words in lines[0], lines[0]
+        assert "success:" not in result.stdout  # no verdict for what was not replayed
+
+
+def test_a_saved_recording_is_readable_by_others(tmp_path):
+    """Written through a private temporary file, the recording still gets the umask's mode."""
+    import os
+    rec.record("grasp_lift", seed=1, policy="idle", time_limit_s=0.04).save(tmp_path / "a.npz")
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert (tmp_path / "a.npz").stat().st_mode & 0o777 == 0o666 & ~mask
+    assert [p.name for p in tmp_path.iterdir()] == ["a.npz"]  # no temporary left behind
+
+
+def test_replay_shows_the_episode_in_meshcat(tmp_path):
+    """--viewer meshcat serves the replay on loopback, then gives the same lines as without it."""
+    import subprocess
+    import sys
+    rec.record("grasp_lift", seed=1, policy="random", time_limit_s=0.2).save(tmp_path / "a.npz")
+    result = subprocess.run([sys.executable, "-m", "viscera", "replay", str(tmp_path / "a.npz"), "--viewer", "meshcat"],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("meshcat viewer: http://127.0.0.1:")
+    assert "bit-identical" in result.stdout and lines[-1].startswith("success: no (grasp_lift: ")
