@@ -103,21 +103,18 @@ class Tracer:
         self._camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
         self._depth = {t: model.jnt_qposadr[model.joint(f"{t}_depth").id] for t in self.tools}
         gut = physics.intestine()
-        closed = float(gut.config.get("grasp_closed_below", 0.1))
-        self._jaw = {}
-        for g in self.trace.graspers:
-            actuator = model.actuator(f"{g}_jaw")
-            geom = model.geom(f"{g}_jaw")
-            self._jaw[g] = (model.jnt_qposadr[model.joint(f"{g}_jaw").id], actuator.id, float(actuator.gainprm[0]),
-                            closed, float(geom.size[1]))  # capsule half-length: the lever at the jaw's middle
+        self._closed = closing_angle(gut)
+        self._jaw = {g: model.jnt_qposadr[model.joint(f"{g}_jaw").id] for g in self.trace.graspers}
         self._sites = {grasp.site.removesuffix("_tip"): i for i, grasp in enumerate(gut.grasps(physics.data.ptr))}
 
-    def sample(self, env) -> None:
+    def sample(self, env) -> dict[str, float]:
+        """Append the tools now to the trace; returns each grasper's pinch (N, `pinches`)."""
         physics = env.physics
         model, data = physics.model.ptr, physics.data.ptr
         trace = self.trace
         trace.time.append(float(data.time))
         grasps = physics.intestine().grasps(data)
+        pinch_now = pinches(physics)
         floor = float(data.geom_xpos[self._floor][2] + model.geom_size[self._floor][2]) if self._floor >= 0 else 0.0
         tips, shafts, forces, walls, seen, inside, holding, closed, pinch, height = ([] for _ in range(10))
         for tool in self.tools:
@@ -133,13 +130,8 @@ class Tracer:
             grasp = grasps[self._sites[tool]] if tool in self._sites else None
             held = bool(grasp is not None and grasp.holding)
             holding.append(held)
-            if tool in self._jaw:
-                qpos, actuator, kp, meet, lever = self._jaw[tool]
-                closed.append(float(data.qpos[qpos]) <= meet)
-                pinch.append(kp * max(0.0, meet - float(data.ctrl[actuator])) / lever if held else 0.0)
-            else:
-                closed.append(False)
-                pinch.append(0.0)
+            closed.append(tool in self._jaw and float(data.qpos[self._jaw[tool]]) <= self._closed)
+            pinch.append(pinch_now.get(tool, 0.0))
             height.append(float(physics.axis_point_at(grasp.abscissa)[2]) - floor if held else np.nan)
         trace.tip.append(tips)
         trace.shaft.append(shafts)
@@ -152,6 +144,7 @@ class Tracer:
         trace.pinch.append(pinch)
         trace.held_height.append(height)
         trace.success = bool(env.task.success(physics))
+        return pinch_now
 
     def _touches_wall(self, model, data, tool: str) -> bool:
         """Geometric: tools and walls have no MuJoCo contacts (the shafts pass the anterior wall)."""
@@ -266,18 +259,24 @@ def step_cost_from(forces: np.ndarray, pinches: np.ndarray) -> float:
                  + np.count_nonzero(pinches > SLIP_PREVENTING_PINCH_N) + np.count_nonzero(pinches > PERFORATION_PINCH_N))
 
 
+def closing_angle(gut) -> float:
+    """The jaw angle (rad) at or below which the plugin counts a jaw closed: config
+    `grasp_closed_below`, 0.1 by default; the pinch model's meeting angle."""
+    return float(gut.config.get("grasp_closed_below", 0.1))
+
+
 def pinches(physics) -> dict[str, float]:
-    """Each holding grasper's pinch now (N; the module doc's model); graspers not holding: 0."""
+    """Each grasper's pinch now (N; the module doc's model), 0 for one not holding."""
     model, data = physics.model.ptr, physics.data.ptr
     gut = physics.intestine()
-    closed = float(gut.config.get("grasp_closed_below", 0.1))
+    closed = closing_angle(gut)
     out = {}
     for grasp in gut.grasps(data):
         tool = grasp.site.removesuffix("_tip")
         out[tool] = 0.0
         if grasp.holding:
             actuator = model.actuator(f"{tool}_jaw")
-            lever = float(model.geom(f"{tool}_jaw").size[1])
+            lever = float(model.geom(f"{tool}_jaw").size[1])  # capsule half-length: the lever at the jaw's middle
             out[tool] = float(actuator.gainprm[0]) * max(0.0, closed - float(data.ctrl[actuator.id])) / lever
     return out
 

@@ -183,11 +183,8 @@ def _one_line(error: BaseException) -> str:
 
 def final_state_sha256(physics) -> str:
     """SHA-256 (hex) of the mjSTATE_FULLPHYSICS state, as float64 bytes."""
-    model, data = physics.model.ptr, physics.data.ptr
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, kind), dtype=np.float64)
-    mujoco.mj_getState(model, data, state, kind)
-    return hashlib.sha256(state.tobytes()).hexdigest()
+    from viscera.scale.batch import state_of
+    return hashlib.sha256(state_of(physics.model.ptr, physics.data.ptr).tobytes()).hexdigest()
 
 
 @functools.cache

@@ -328,7 +328,7 @@ class PolicyDevice(Device):
         action = self.policy(self.session.time_step)
         out = {}
         for tool in self.tools:
-            actuators = self.session._actuators[tool.name]
+            actuators = np.array(self.session.mapping.actuators[tool.name])
             out[tool.name] = np.where(actuators >= 0, action[np.maximum(actuators, 0)] / TO_SI, 0.0)
         return out
 

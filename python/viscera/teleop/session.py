@@ -29,6 +29,7 @@ import numpy as np
 
 import viscera.tasks
 from viscera import assess
+from viscera.tasks.policies import Tools
 from viscera.teleop.devices import MAX_VELOCITY, Device, Snapshot, ToolInfo
 from viscera.trajectory import COORDINATES
 
@@ -85,13 +86,12 @@ class Session:
     # -- the tools, in user units (deg, m), COORDINATES order
     def _find_tools(self) -> None:
         model = self.model
+        self.mapping = Tools(self.env)  # the tasks' mapping of tool coordinates to actuators
         self.tools: list[ToolInfo] = []
-        self._actuators: dict[str, np.ndarray] = {}
         self._qpos: dict[str, np.ndarray] = {}
         self._dof: dict[str, np.ndarray] = {}
-        for index, name in enumerate(self.physics.tools()):
-            actuators = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{name}_{c}")
-                                  for c in COORDINATES])
+        for index, name in enumerate(self.mapping.names):
+            actuators = np.array(self.mapping.actuators[name])
             present = actuators >= 0
             lower, upper, kp = np.zeros(5), np.zeros(5), np.zeros(5)
             for k, a in enumerate(actuators):
@@ -99,23 +99,23 @@ class Session:
                     lower[k], upper[k] = model.actuator_ctrlrange[a] / TO_SI[k]
                     kp[k] = model.actuator_gainprm[a, 0]
             joints = [model.actuator_trnid[a, 0] if a >= 0 else -1 for a in actuators]
-            self._actuators[name] = actuators
             self._qpos[name] = np.array([model.jnt_qposadr[j] if j >= 0 else -1 for j in joints])
             self._dof[name] = np.array([model.jnt_dofadr[j] if j >= 0 else -1 for j in joints])
-            initial = np.where(present, np.array([self.data.ctrl[a] if a >= 0 else 0.0 for a in actuators]) / TO_SI, 0.0)
+            initial = np.where(present, self.data.ctrl[np.maximum(actuators, 0)] / TO_SI, 0.0)
             self.tools.append(ToolInfo(name, index, kp, lower, upper, initial, bool(present[4])))
 
     def _joint_values(self, name: str, source: np.ndarray, addresses: dict[str, np.ndarray]) -> np.ndarray:
         where = addresses[name]
         return np.where(where >= 0, source[np.maximum(where, 0)], 0.0) / TO_SI
 
-    def snapshot(self) -> Snapshot:
-        """The tools now (user units; forces in N, world frame)."""
+    def snapshot(self, pinch: dict[str, float] | None = None) -> Snapshot:
+        """The tools now (user units; forces in N, world frame); `pinch`, viscera.assess.pinches
+        now, when the caller has it already."""
         sensors = self.physics.named.data.sensordata
         holding = {}
         for grasp in self.physics.intestine().grasps(self.data):
             holding[grasp.site.removesuffix("_tip")] = grasp.holding
-        pinch = assess.pinches(self.physics)
+        pinch = assess.pinches(self.physics) if pinch is None else pinch
         q, qdot, force, warning = {}, {}, {}, {}
         for tool in self.tools:
             q[tool.name] = self._joint_values(tool.name, self.data.qpos, self._qpos)
@@ -129,12 +129,7 @@ class Session:
 
     def action(self) -> np.ndarray:
         """The dm_env action of the current commands (rad, m per actuator)."""
-        action = np.zeros(self.model.nu)
-        for tool in self.tools:
-            actuators = self._actuators[tool.name]
-            present = actuators >= 0
-            action[actuators[present]] = (self.command[tool.name] * TO_SI)[present]
-        return action
+        return self.mapping.action(self.command)
 
     def tick(self) -> None:
         """One control tick: the device's targets, velocity-limited, stepped, recorded, fed back."""
@@ -154,11 +149,11 @@ class Session:
         self.ticks += 1
         if self.recorder is not None:
             self.recorder.append(action)
-        self.tracer.sample(self.env)
-        for tool, pinch in assess.pinches(self.physics).items():  # the current hold's force-time product
+        pinches = self.tracer.sample(self.env)
+        for tool, pinch in pinches.items():  # the current hold's force-time product
             self.hold_force_time[tool] = self.hold_force_time.get(tool, 0.0) + pinch * dt if pinch > 0.0 else 0.0
         if self.device is not None:
-            self.device.feedback(self.snapshot())
+            self.device.feedback(self.snapshot(pinches))
 
     def ended(self) -> str | None:
         if not self.time_step.last():
