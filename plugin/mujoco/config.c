@@ -19,22 +19,19 @@
 #define VALUE(text) text, NULL
 #define DERIVED(words) NULL, words
 #define KEY_NAME(name, kind, field, minimum, maximum, unit, default_value, meaning) #name,
-#define KEY_ROW(name, kind, field, minimum, maximum, unit, default_value, meaning) \
+#define VSC_KEY_ROW(name, kind, field, minimum, maximum, unit, default_value, meaning) \
   {#name, kind, field, minimum, maximum, unit, default_value, meaning},
 const char* const vsc_plugin_attributes[] = {VSC_PLUGIN_KEYS(KEY_NAME)};
-const vsc_plugin_key vsc_plugin_keys[] = {VSC_PLUGIN_KEYS(KEY_ROW)};
+const vsc_plugin_key vsc_plugin_keys[] = {VSC_PLUGIN_KEYS(VSC_KEY_ROW)};
 const int vsc_plugin_attribute_count = VSC_KEY_COUNT;
 
-// KEY_CHOICE values are written as int
+// VSC_KEY_KIND_CHOICE values are written as int
 _Static_assert(sizeof(vsc_integrator) == sizeof(int) && sizeof(vsc_shape_kind) == sizeof(int), "enum size");
 
 #define MAX_NUMBERS 300000  // a polyline of 100000 vertices is plenty
 
 // Each enumerated key's names, indexed by its enum (designated initializers: a
 // name cannot drift from its value), NULL-terminated.
-static const char* const integrator_names[VSC_INTEGRATOR_COUNT + 1] = {
-    [VSC_INTEGRATOR_RK4] = "rk4", [VSC_INTEGRATOR_SYMPLECTIC_EULER] = "symplectic_euler",
-    [VSC_INTEGRATOR_IMPLICIT] = "implicit", [VSC_INTEGRATOR_LEAPFROG] = "leapfrog", NULL};
 static const char* const shape_names[] = {[VSC_SHAPE_LINE] = "line", [VSC_SHAPE_POLYLINE] = "polyline",
                                           [VSC_SHAPE_SERPENTINE] = "serpentine",
                                           [VSC_SHAPE_CONTROL_POINTS] = "control_points", NULL};
@@ -42,7 +39,7 @@ static const char* const clamp_names[] = {"none", "start", "end", "both", NULL};
 static const char* const mass_matrix_names[] = {"consistent", "lumped", NULL};    // vsc_rod_def.lumped_mass
 
 const char* const* vsc_plugin_allowed_values(const char* key) {
-  if (strcmp(key, "integrator") == 0) return integrator_names;
+  if (strcmp(key, "integrator") == 0) return vsc_integrator_names;  // the core's table (vsc_integrate.h)
   if (strcmp(key, "shape") == 0) return shape_names;
   if (strcmp(key, "clamped") == 0) return clamp_names;
   if (strcmp(key, "mass_matrix") == 0) return mass_matrix_names;
@@ -120,31 +117,31 @@ static int read_key(reader* r, vsc_plugin_config* c, int index) {
   const char* given = raw(r, key->name);
   c->given[index] = given != NULL;
   const char* text = given ? given : key->value;
-  if (!text || key->kind == KEY_CUSTOM) return 0;
+  if (!text || key->kind == VSC_KEY_KIND_CUSTOM) return 0;
   void* field = (char*)c + key->offset;
   double x;
   long k;
   switch (key->kind) {
-    case KEY_REAL:
-    case KEY_POSITIVE:
-    case KEY_NONNEGATIVE:
+    case VSC_KEY_KIND_REAL:
+    case VSC_KEY_KIND_POSITIVE:
+    case VSC_KEY_KIND_NONNEGATIVE:
       if (parse_numbers(text, &x, 1) != 1) return fail(r, "attribute '%s' = '%s' is not a finite number", key->name, text);
-      if (key->kind == KEY_POSITIVE && !(x > 0.0))
+      if (key->kind == VSC_KEY_KIND_POSITIVE && !(x > 0.0))
         return fail(r, "attribute '%s' = '%s' must be positive (%s)", key->name, text, key->unit);
-      if (key->kind == KEY_NONNEGATIVE && !(x >= 0.0))
+      if (key->kind == VSC_KEY_KIND_NONNEGATIVE && !(x >= 0.0))
         return fail(r, "attribute '%s' = '%s' must be >= 0 (%s)", key->name, text, key->unit);
-      if (key->kind == KEY_REAL && !(x >= key->minimum && x <= key->maximum))
+      if (key->kind == VSC_KEY_KIND_REAL && !(x >= key->minimum && x <= key->maximum))
         return fail(r, "attribute '%s' = '%s' must be in [%g, %g] (%s)", key->name, text, key->minimum, key->maximum,
                     key->unit);
       *(double*)field = x;
       return 0;
-    case KEY_COUNT:
+    case VSC_KEY_KIND_COUNT:
       if (!parse_integer(text, &k)) return fail(r, "attribute '%s' = '%s' is not an integer", key->name, text);
       if (k < key->minimum) return fail(r, "attribute '%s' = '%s' must be at least %ld", key->name, text, (long)key->minimum);
       if (k > key->maximum) return fail(r, "attribute '%s' = '%s' must be at most %ld", key->name, text, (long)key->maximum);
       *(int*)field = (int)k;
       return 0;
-    case KEY_VECTOR: {
+    case VSC_KEY_KIND_VECTOR: {
       double buffer[8];
       int count = (int)key->maximum;
       if (parse_numbers(text, buffer, 8) != count)
@@ -152,7 +149,7 @@ static int read_key(reader* r, vsc_plugin_config* c, int index) {
       memcpy(field, buffer, sizeof(double) * (size_t)count);
       return 0;
     }
-    case KEY_CHOICE: {
+    case VSC_KEY_KIND_CHOICE: {
       const char* const* names = vsc_plugin_allowed_values(key->name);
       for (int i = 0; names[i]; ++i)
         if (strcmp(text, names[i]) == 0) {
@@ -163,7 +160,7 @@ static int read_key(reader* r, vsc_plugin_config* c, int index) {
       list_names(names, "", allowed, sizeof(allowed));
       return fail(r, "attribute '%s' = '%s' must be %s", key->name, text, allowed);
     }
-    case KEY_CUSTOM:
+    case VSC_KEY_KIND_CUSTOM:
       break;
   }
   return 0;
@@ -401,31 +398,31 @@ int vsc_plugin_key_field(int i, const char* field, char* out, int size) {
   if (strcmp(field, "kind") == 0) return snprintf(out, (size_t)size, "%s", kinds[key->kind]);
   if (strcmp(field, "values") == 0) {
     switch (key->kind) {
-      case KEY_REAL:
+      case VSC_KEY_KIND_REAL:
         if (isfinite(key->minimum) || isfinite(key->maximum))
           snprintf(text, sizeof(text), "%g to %g", key->minimum, key->maximum);
         else
           snprintf(text, sizeof(text), "any");
         break;
-      case KEY_POSITIVE: snprintf(text, sizeof(text), "> 0"); break;
-      case KEY_NONNEGATIVE: snprintf(text, sizeof(text), ">= 0"); break;
-      case KEY_COUNT: snprintf(text, sizeof(text), "%ld to %ld", (long)key->minimum, (long)key->maximum); break;
-      case KEY_VECTOR: snprintf(text, sizeof(text), "%d numbers", (int)key->maximum); break;
-      case KEY_CHOICE: list_names(names, "`", text, sizeof(text)); break;
-      case KEY_CUSTOM: snprintf(text, sizeof(text), "a list"); break;
+      case VSC_KEY_KIND_POSITIVE: snprintf(text, sizeof(text), "> 0"); break;
+      case VSC_KEY_KIND_NONNEGATIVE: snprintf(text, sizeof(text), ">= 0"); break;
+      case VSC_KEY_KIND_COUNT: snprintf(text, sizeof(text), "%ld to %ld", (long)key->minimum, (long)key->maximum); break;
+      case VSC_KEY_KIND_VECTOR: snprintf(text, sizeof(text), "%d numbers", (int)key->maximum); break;
+      case VSC_KEY_KIND_CHOICE: list_names(names, "`", text, sizeof(text)); break;
+      case VSC_KEY_KIND_CUSTOM: snprintf(text, sizeof(text), "a list"); break;
     }
     return snprintf(out, (size_t)size, "%s", text);
   }
   if (strcmp(field, "default") != 0) return -1;
   if (key->derived) return snprintf(out, (size_t)size, "%s", key->derived);
-  if (key->value) return snprintf(out, (size_t)size, key->kind == KEY_CHOICE ? "`%s`" : "%s", key->value);
+  if (key->value) return snprintf(out, (size_t)size, key->kind == VSC_KEY_KIND_CHOICE ? "`%s`" : "%s", key->value);
   if (key->offset < 0) return snprintf(out, (size_t)size, "-");
   vsc_plugin_config c;  // a core default: print the core's value
   core_defaults(&c);
   const void* value = (const char*)&c + key->offset;
   switch (key->kind) {
-    case KEY_COUNT: return snprintf(out, (size_t)size, "%d", *(const int*)value);
-    case KEY_CHOICE: return snprintf(out, (size_t)size, "`%s`", names[*(const int*)value]);
+    case VSC_KEY_KIND_COUNT: return snprintf(out, (size_t)size, "%d", *(const int*)value);
+    case VSC_KEY_KIND_CHOICE: return snprintf(out, (size_t)size, "`%s`", names[*(const int*)value]);
     default: return snprintf(out, (size_t)size, "%g", *(const double*)value);
   }
 }

@@ -22,13 +22,13 @@ enum { VSC_PLUGIN_KEYS(VSC_KEY_INDEX) VSC_KEY_COUNT };
 
 /// How a key's value is read and bounded (see keys.h).
 typedef enum vsc_key_kind {
-  KEY_REAL,
-  KEY_POSITIVE,
-  KEY_NONNEGATIVE,
-  KEY_COUNT,
-  KEY_VECTOR,
-  KEY_CHOICE,
-  KEY_CUSTOM
+  VSC_KEY_KIND_REAL,
+  VSC_KEY_KIND_POSITIVE,
+  VSC_KEY_KIND_NONNEGATIVE,
+  VSC_KEY_KIND_COUNT,
+  VSC_KEY_KIND_VECTOR,
+  VSC_KEY_KIND_CHOICE,
+  VSC_KEY_KIND_CUSTOM
 } vsc_key_kind;
 
 /// One row of the table of keys (keys.h; static storage).
@@ -36,8 +36,8 @@ typedef struct vsc_plugin_key {
   const char* name;
   vsc_key_kind kind;
   long offset;           ///< the value's place in vsc_plugin_config (bytes), -1: read by its own code
-  double minimum;        ///< KEY_REAL and KEY_COUNT: smallest allowed value
-  double maximum;        ///< KEY_REAL and KEY_COUNT: largest; KEY_VECTOR: how many numbers
+  double minimum;        ///< VSC_KEY_KIND_REAL and VSC_KEY_KIND_COUNT: smallest allowed value
+  double maximum;        ///< VSC_KEY_KIND_REAL and VSC_KEY_KIND_COUNT: largest; VSC_KEY_KIND_VECTOR: how many numbers
   const char* unit;
   const char* value;     ///< default read as if the user wrote it, or NULL (the core's, or derived)
   const char* derived;   ///< the docs' words for a derived default, or NULL

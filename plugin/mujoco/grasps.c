@@ -19,24 +19,24 @@ int vsc_mujoco_holds_update(const mjModel* m, mjData* d, const vsc_grasper_confi
     const mjtNum* rotation = d->site_xmat + 9 * site;  // site to world, row major
     int closed = d->qpos[m->jnt_qposadr[g->joint[i]]] <= g->closed_below;
     if (!closed) {
-      st[0] = GRASP_OPEN;
+      st[0] = VSC_GRASP_OPEN;
       continue;
     }
-    if (st[0] == GRASP_OPEN) {  // closing now: take the nearest axis point within reach
+    if (st[0] == VSC_GRASP_OPEN) {  // closing now: take the nearest axis point within reach
       double s, point[3];
       double distance = vsc_rod_nearest_abscissa(rod, q, origin, &s);
-      st[0] = GRASP_CLOSED_EMPTY;
+      st[0] = VSC_GRASP_CLOSED_EMPTY;
       if (distance <= g->reach) {
         vsc_basis basis = vsc_spline_basis(vsc_rod_control_count(rod), s);
         vsc_basis_point(&basis, q, point);
         double offset[3] = {point[0] - origin[0], point[1] - origin[1], point[2] - origin[2]};
-        st[0] = GRASP_HOLDING;
+        st[0] = VSC_GRASP_HOLDING;
         st[1] = s;
         for (int a = 0; a < 3; ++a)  // world offset into the site frame: R^T offset
           st[2 + a] = rotation[a] * offset[0] + rotation[3 + a] * offset[1] + rotation[6 + a] * offset[2];
       }
     }
-    if (st[0] != GRASP_HOLDING) continue;
+    if (st[0] != VSC_GRASP_HOLDING) continue;
     vsc_grasp* hold = &out->grasps[holds];
     out->owner[holds++] = i;
     hold->abscissa = st[1] < 0.0 ? 0.0 : (st[1] > 1.0 ? 1.0 : st[1]);
@@ -70,7 +70,7 @@ void vsc_mujoco_holds_release(const mjModel* m, const mjData* d, const vsc_grasp
     vsc_wrench_add(wrench + 6 * body, 1.0, f, NULL, arm);
     if (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] > g->slip_force * g->slip_force) {
       mjtNum* st = grasp_state + VSC_GRASP_STATE_SIZE * i;
-      st[0] = GRASP_CLOSED_EMPTY;
+      st[0] = VSC_GRASP_CLOSED_EMPTY;
       st[5] += 1.0;
     }
   }

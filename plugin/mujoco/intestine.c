@@ -21,7 +21,9 @@
 #include "config.h"
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
+#include "viscera/vsc_place.h"
 #include "viscera/vsc_skin.h"
+#include "viscera/vsc_stability.h"
 
 #define ERROR_SIZE 512
 
@@ -101,33 +103,41 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
   memset(state + l.offset[VSC_STATE_GRASPS], 0, sizeof(double) * (size_t)l.size[VSC_STATE_GRASPS]);
 }
 
+// Build this instance's caches for `m` and make them d's: the model's state
+// must be the size the config needs (an MJB saved with another config would
+// overflow it). Any stale entry at this address (a freed mjData) is released.
+// Returns the caches, or NULL with a warning.
+static intestine* install(const mjModel* m, mjData* d, int instance) {
+  char error[ERROR_SIZE];
+  intestine* it = intestine_create(m, instance, error);
+  if (!it) {
+    mju_warning("%s", error);
+    return NULL;
+  }
+  if (m->plugin_statenum[instance] != config_state_size(m, &it->config)) {
+    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d",
+                m->plugin_statenum[instance], config_state_size(m, &it->config));
+    intestine_free(it);
+    return NULL;
+  }
+  void* replaced = vsc_registry_insert(d, instance, it);
+  if (replaced == it) {  // registry out of memory
+    intestine_free(it);
+    mju_warning("viscera.intestine: out of memory");
+    return NULL;
+  }
+  intestine_free((intestine*)replaced);
+  d->plugin_data[instance] = (uintptr_t)it;  // informative only
+  return it;
+}
+
 // The caches of this data, from the registry (never from d->plugin_data, which
 // a pickled copy shares with its original), built on first use by a copy and
 // rebuilt if the data is stepped with another model (multi-model rollouts).
 // NULL only if building fails.
 static intestine* caches(const mjModel* m, mjData* d, int instance) {
   intestine* it = (intestine*)vsc_registry_find(d, instance);
-  if (it && it->model == m) return it;
-  char error[ERROR_SIZE];
-  intestine* fresh = intestine_create(m, instance, error);
-  if (!fresh) {
-    mju_warning("%s", error);
-    return NULL;
-  }
-  if (m->plugin_statenum[instance] != config_state_size(m, &fresh->config)) {
-    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d; not stepped",
-                m->plugin_statenum[instance], config_state_size(m, &fresh->config));
-    intestine_free(fresh);
-    return NULL;
-  }
-  void* replaced = vsc_registry_insert(d, instance, fresh);
-  if (replaced == fresh) {  // registry out of memory
-    intestine_free(fresh);
-    return NULL;
-  }
-  intestine_free((intestine*)replaced);
-  d->plugin_data[instance] = (uintptr_t)fresh;  // informative only
-  return fresh;
+  return it && it->model == m ? it : install(m, d, instance);
 }
 
 static int all_finite(const mjtNum* x, int size) {
@@ -182,28 +192,9 @@ static int intestine_nstate(const mjModel* m, int instance) {
 }
 
 static int intestine_init(const mjModel* m, mjData* d, int instance) {
-  char error[ERROR_SIZE];
   if (check_sensors(m, instance)) return -1;
-  intestine* it = intestine_create(m, instance, error);
-  if (!it) {
-    mju_warning("%s", error);
-    return -1;
-  }
-  if (m->plugin_statenum[instance] != config_state_size(m, &it->config)) {
-    // e.g. an MJB saved with another config: writing the state would overflow it
-    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d",
-                m->plugin_statenum[instance], config_state_size(m, &it->config));
-    intestine_free(it);
-    return -1;
-  }
-  void* replaced = vsc_registry_insert(d, instance, it);
-  if (replaced == it) {
-    intestine_free(it);
-    mju_warning("viscera.intestine: out of memory");
-    return -1;
-  }
-  intestine_free((intestine*)replaced);  // a stale entry of a freed mjData at this address
-  d->plugin_data[instance] = (uintptr_t)it;
+  intestine* it = install(m, d, instance);
+  if (!it) return -1;
   write_initial_state(m, &it->config, it->initial_q, d->plugin_state + m->plugin_stateadr[instance]);
   return 0;
 }
@@ -343,57 +334,66 @@ static int step_substeps(const mjModel* m, intestine* it) {
                              m->opt.timestep);
 }
 
-// Integrate the rod over one MuJoCo step against the geoms' poses at the step start.
-static void intestine_advance(const mjModel* m, mjData* d, int instance) {
-  intestine* it = caches(m, d, instance);
-  if (!it) return;
-  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+// A state that is not finite anywhere (a bad mj_setState, say) starts over
+// from the initial shape, counted as a divergence. Returns 1 if it did.
+static int restart_if_not_finite(const mjModel* m, intestine* it, int instance, mjtNum* state) {
   const vsc_state_layout l = it->layout;
-  if (!all_finite(state, m->plugin_statenum[instance])) {  // e.g. a bad mj_setState: start over
-    mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
-    double count = isfinite(state[l.offset[VSC_STATE_DIVERGENCES]]) ? state[l.offset[VSC_STATE_DIVERGENCES]] : 0.0;
-    double recovered = isfinite(state[l.offset[VSC_STATE_RECOVERIES]]) ? state[l.offset[VSC_STATE_RECOVERIES]] : 0.0;
-    write_initial_state(m, &it->config, it->initial_q, state);
-    state[l.offset[VSC_STATE_DIVERGENCES]] = count + 1.0;
-    state[l.offset[VSC_STATE_RECOVERIES]] = recovered;
-    return;
-  }
-  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->world.count);
-  vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
+  if (all_finite(state, m->plugin_statenum[instance])) return 0;
+  mju_warning("viscera.intestine: non-finite state, reset to the initial shape");
+  double count = isfinite(state[l.offset[VSC_STATE_DIVERGENCES]]) ? state[l.offset[VSC_STATE_DIVERGENCES]] : 0.0;
+  double recovered = isfinite(state[l.offset[VSC_STATE_RECOVERIES]]) ? state[l.offset[VSC_STATE_RECOVERIES]] : 0.0;
+  write_initial_state(m, &it->config, it->initial_q, state);
+  state[l.offset[VSC_STATE_DIVERGENCES]] = count + 1.0;
+  state[l.offset[VSC_STATE_RECOVERIES]] = recovered;
+  return 1;
+}
+
+// Once per data, at its first step (init also runs inside MuJoCo's compiler, on
+// a model whose flags are not the scene's): the model's flags the user rarely
+// means, and a start inside a geom.
+static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* q) {
   int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
-  if (passive_off && world.geom_count > 0 && !it->warned_passive_off) {
+  if (passive_off && world->geom_count > 0 && !it->warned_passive_off) {
     // mj_passive returns before plugin compute when both are off
     it->warned_passive_off = 1;
     mju_warning("viscera.intestine: MuJoCo's spring and damper flags are both disabled, so bodies do not "
                 "feel the intestine (it still feels them); enable either flag");
   }
+  if (it->checked_start) return;
+  if (!contacts_enabled(m) && it->world.count > 0)  // honoured (it passes through them), but rarely meant
+    mju_warning("viscera.intestine: the model disables contacts (<flag contact=\"disable\"/>): the "
+                "intestine passes through every geom (its self-collision is its own config key, "
+                "'self_collision')");
+  warn_start_inside(m, it, world, q);
+}
+
+// Gather: MuJoCo's side of the step, as the core's world. Gravity, the geoms'
+// poses and velocities at the step start, the friction state's partners
+// checked, and the jaws' holds taken or let go.
+static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* state) {
+  const vsc_state_layout l = it->layout;
+  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->world.count);
+  vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
   if (!(m->opt.disableflags & mjDSBL_GRAVITY))
     for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
   if (world.geom_count > 0) vsc_mujoco_geoms_update(m, d, it->config.friction, &it->world);
-  if (!it->checked_start) {
-    // once per data, at its first step: init also runs inside MuJoCo's compiler,
-    // on a model whose flags are not the scene's
-    if (!contacts_enabled(m) && it->world.count > 0)  // honoured (it passes through them), but rarely meant
-      mju_warning("viscera.intestine: the model disables contacts (<flag contact=\"disable\"/>): the "
-                  "intestine passes through every geom (its self-collision is its own config key, "
-                  "'self_collision')");
-    warn_start_inside(m, it, &world, state);
-  }
+  warn_once(m, it, &world, state);
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
   world.geom_wrench = it->geom_wrench;
-  mjtNum* grasp_state = state + l.offset[VSC_STATE_GRASPS];
   world.grasps = it->holds.grasps;
-  world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state, grasp_state, &it->holds);
-  vsc_step_options step = it->config.step;
-  step.substeps = step_substeps(m, it);
-  vsc_step_report report = {0, 0};
-  vsc_status status = vsc_rod_step(it->rod, &world, state + l.offset[VSC_STATE_POSITIONS],
-                                   state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
-                                   m->opt.timestep, &step, &report);
-  // the step's average reaction per body, as force and torque about its centre of mass
+  world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state,
+                                              state + l.offset[VSC_STATE_GRASPS], &it->holds);
+  return world;
+}
+
+// Scatter: the step's average reaction per body, as force and torque about its
+// centre of mass, into the wrenches block; the holds' reactions to the jaws
+// (a hold pulled past slip_force slips).
+static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world* world, mjtNum* state) {
+  const vsc_state_layout l = it->layout;
   mjtNum* wrench = state + l.offset[VSC_STATE_WRENCHES];
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
-  for (int i = 0; i < world.geom_count; ++i) {
+  for (int i = 0; i < world->geom_count; ++i) {
     const double* w = it->geom_wrench + 6 * i;
     int g = it->world.ids[i], body = m->geom_bodyid[g];
     const mjtNum* com = d->xipos + 3 * body;
@@ -401,21 +401,46 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
                      it->world.geoms[i].position[2] - com[2]};
     vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
-  vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, grasp_state, wrench);
-  // warn at counts 1, 2, 4, 8...: no spam
+  vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, state + l.offset[VSC_STATE_GRASPS], wrench);
+}
+
+// Count a diverged or recovered step in the state; warn at counts 1, 2, 4, 8...: no spam.
+static void count_trouble(const mjData* d, intestine* it, mjtNum* state, vsc_status status,
+                          const vsc_step_report* report, int substeps) {
+  const vsc_state_layout l = it->layout;
   if (status == VSC_ERROR_DIVERGED) {
     double count = state[l.offset[VSC_STATE_DIVERGENCES]] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))
       mju_warning("viscera.intestine: state diverged at t = %g s even at %d substeps; positions restored, "
                   "velocities zeroed. Use integrator 'implicit', lower the timestep, raise 'substeps' or soften "
-                  "'stretch_stiffness'/'contact_stiffness' (%g times so far)", d->time, report.substeps, count);
-  } else if (report.retries > 0) {
+                  "'stretch_stiffness'/'contact_stiffness' (%g times so far)", d->time, report->substeps, count);
+  } else if (report->retries > 0) {
     double count = state[l.offset[VSC_STATE_RECOVERIES]] += 1.0;
     if (count == ldexp(1.0, ilogb(count)))
       mju_warning("viscera.intestine: state diverged at t = %g s and held at %d substeps instead of %d; "
                   "raise 'substeps' or use integrator 'implicit' (%g recoveries so far)", d->time,
-                  report.substeps, step.substeps, count);
+                  report->substeps, substeps, count);
   }
+}
+
+// One MuJoCo step of the rod, top to bottom: gather MuJoCo's side into the
+// core's world, step the rod against the geoms' poses at the step start,
+// scatter the reactions back, count trouble.
+static void intestine_advance(const mjModel* m, mjData* d, int instance) {
+  intestine* it = caches(m, d, instance);
+  if (!it) return;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  if (restart_if_not_finite(m, it, instance, state)) return;
+  const vsc_state_layout l = it->layout;
+  vsc_world world = gather(m, d, it, state);
+  vsc_step_options step = it->config.step;
+  step.substeps = step_substeps(m, it);
+  vsc_step_report report = {0, 0};
+  vsc_status status = vsc_rod_step(it->rod, &world, state + l.offset[VSC_STATE_POSITIONS],
+                                   state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
+                                   m->opt.timestep, &step, &report);
+  scatter(m, d, it, &world, state);
+  count_trouble(d, it, state, status, &report, step.substeps);
 }
 
 static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {

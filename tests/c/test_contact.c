@@ -8,7 +8,10 @@
 
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_rod.h"
-#include "vsc_contact_internal.h"
+#include "vsc_contact.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
+#include "viscera/viscera.h"
 #include "vsc_test.h"
 
 #define N 60
@@ -71,11 +74,13 @@ static void cached_lists_match_fresh_builds(void) {
     vsc_world world = {{0, 0, 0}, &tool, 1};
     memset(cached_force, 0, sizeof(cached_force));
     vsc_rod_update_spheres(cached, q, v);
-    contacts += vsc_rod_contact_forces(cached, &world, cached_force);
+    vsc_step_context context = {cached, &world, NULL, 1.0, 1.0, NULL};
+    contacts += vsc_rod_add_contact_forces(&context, cached_force);
     vsc_rod* fresh = coiled_rod();
     memset(fresh_force, 0, sizeof(fresh_force));
     vsc_rod_update_spheres(fresh, q, v);
-    vsc_rod_contact_forces(fresh, &world, fresh_force);
+    context.rod = fresh;
+    vsc_rod_add_contact_forces(&context, fresh_force);
     for (int i = 0; i < 3 * N; ++i) mismatches += cached_force[i] != fresh_force[i];
     vsc_rod_destroy(fresh);
   }

@@ -5,7 +5,9 @@
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_layout.h"
-#include "vsc_contact_internal.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
+#include "viscera/viscera.h"
 #include "vsc_test.h"
 
 static vsc_rod* straight_rod(int n, double length, double damping, double* q) {

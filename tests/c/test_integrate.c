@@ -7,7 +7,9 @@
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_layout.h"
-#include "vsc_contact_internal.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
+#include "viscera/viscera.h"
 #include "vsc_test.h"
 
 // A bent intestine, stretched by `stretch` (1.02: 2 %), released at rest

@@ -6,7 +6,9 @@
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_jacobian.h"
-#include "vsc_contact_internal.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
+#include "viscera/viscera.h"
 #include "vsc_test.h"
 
 enum { N_POINTS = 8, SIZE = 3 * N_POINTS };

@@ -9,7 +9,9 @@
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_layout.h"
 #include "viscera/vsc_rod.h"
-#include "vsc_contact_internal.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
+#include "viscera/viscera.h"
 #include "vsc_test.h"
 
 static vsc_rod* make_rod(int n, double ks, double kb, double kg) {

@@ -1,11 +1,13 @@
-// Grasp springs and the nearest axis point (see vsc_grasp.h).
-#include "viscera/vsc_grasp.h"
-#include "vsc_rod_internal.h"
+// Grasp springs and the nearest axis point (see viscera/vsc_grasp.h).
+#include "vsc_grasp.h"
 
 #include <math.h>
 
-void vsc_rod_grasp_forces(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                          double* Q) {
+#include "vsc_place.h"
+
+void vsc_rod_add_grasp_forces(const vsc_step_context* context, const double* q, const double* v, double* Q) {
+  const vsc_rod* rod = context->rod;
+  const vsc_world* world = context->world;
   for (int g = 0; g < world->grasp_count; ++g) {
     vsc_grasp* grasp = &world->grasps[g];
     vsc_basis basis = vsc_spline_basis(rod->n, grasp->abscissa);
@@ -15,7 +17,7 @@ void vsc_rod_grasp_forces(const vsc_rod* rod, const vsc_world* world, const doub
     for (int c = 0; c < 3; ++c) {
       force[c] = grasp->stiffness * (grasp->anchor[c] - position[c]) +
                  grasp->damping * (grasp->anchor_velocity[c] - velocity[c]);
-      grasp->reaction[c] -= world->wrench_weight * force[c];
+      grasp->reaction[c] -= context->wrench_weight * force[c];
     }
     for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
       for (int c = 0; c < 3; ++c) Q[3 * (basis.first + j) + c] += basis.weight[j] * force[c];

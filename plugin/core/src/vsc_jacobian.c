@@ -1,12 +1,14 @@
 // Band force Jacobians (see vsc_jacobian.h): sample-level blocks first, then
 // projected onto control points through the spline basis.
-#include "viscera/vsc_jacobian.h"
+#include "vsc_jacobian.h"
 
 #include <math.h>
 #include <string.h>
 
-#include "vsc_contact_internal.h"
 #include "viscera/vsc_grasp.h"
+#include "vsc_place.h"
+#include "vsc_rod.h"
+#include "vsc_touch.h"
 
 // Entry (row, col), row >= col, of a wide band of half-width w.
 #define BAND(band, w, row, col) (band)[(size_t)((w) + 1) * (size_t)(row) + (size_t)((w) + (col) - (row))]

@@ -1,13 +1,17 @@
 // Rod creation: its definition's defaults and checks, the mass matrix, the
-// basis tables and the scratch it owns (the forces are in vsc_forces.c).
-#include "viscera/vsc_rod.h"
+// basis tables and the arrays it owns (placement is in vsc_place.c, the forces
+// in vsc_forces.c).
+#include "vsc_rod.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "viscera/vsc_band.h"
-#include "vsc_contact_internal.h"
+#include "viscera/vsc_friction.h"
+#include "vsc_contact_lists.h"
+#include "vsc_touch.h"
 
 
 vsc_rod_def vsc_default_rod_def(void) {
@@ -165,20 +169,112 @@ static int jacobian_half_width_bound(int samples_per_segment) {
   return 3 * (3 + (2 + samples_per_segment - 1) / samples_per_segment) + 2;
 }
 
-double vsc_rod_memory_bytes(const vsc_rod_def* def) {
+// The arrays a rod owns, all in one block. Their sizes come from the
+// definition alone, in one table that vsc_rod_memory_bytes sums and
+// vsc_rod_create carves the block from.
+enum {
+  ARRAY_SAMPLE_BASIS,    // vsc_basis per sample (N)
+  ARRAY_SPHERE_BASIS,    // vsc_basis per sphere
+  ARRAY_TETHER_BASIS,    // vsc_basis per mesentery tether (at least 1)
+  ARRAY_MASS_BAND,       // 4 n
+  ARRAY_MASS_FACTOR,     // 4 n
+  ARRAY_MASS_ROW_SUM,    // n
+  ARRAY_GATHER_WEIGHT,   // n (4 S + 1): each sample feeds 4 control points, so the transpose holds 4 N <= n (4 S + 1)
+  ARRAY_SCRATCH,         // 10 N: sample_x .. edge_length
+  ARRAY_SPHERE_XYZ,      // 3 per sphere
+  ARRAY_SPHERE_VELOCITY, // 3 per sphere
+  ARRAY_STAGE,           // 8 x 3n
+  ARRAY_SAMPLE_HESSIAN,  // 27 N
+  ARRAY_SYSTEM,          // 3n x (half width + 1), at the half width's bound
+  ARRAY_FACTOR_ROW,      // half width + 1
+  ARRAY_BACKUP,          // q, v (3n each), the friction state, then energy_state (6n)
+  ARRAY_TOUCH,           // VSC_TOUCH_SIZE per sphere
+  ARRAY_GATHER_FIRST,    // 3n ints: gather_first, gather_count, gather_offset
+  ARRAY_PINNED,          // pinned indices (at least 1)
+  ARRAY_IS_PINNED,       // n bytes
+  ARRAY_COUNT
+};
+
+// Each array starts at a multiple of this (bytes): a cache line.
+#define ARRAY_ALIGNMENT 64.0
+
+// Bytes of each array (doubles: no product overflows), from the definition.
+static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   double n = def->control_count, S = def->samples_per_segment, N = (n - 1.0) * S + 1.0;
+  double spheres = def->collision_sphere_count, half_width = jacobian_half_width_bound(def->samples_per_segment);
+  double d = sizeof(double), basis = sizeof(vsc_basis);
+  bytes[ARRAY_SAMPLE_BASIS] = N * basis;
+  bytes[ARRAY_SPHERE_BASIS] = spheres * basis;
+  bytes[ARRAY_TETHER_BASIS] = (def->mesentery_points > 0 ? def->mesentery_points : 1) * basis;
+  bytes[ARRAY_MASS_BAND] = 4.0 * n * d;
+  bytes[ARRAY_MASS_FACTOR] = 4.0 * n * d;
+  bytes[ARRAY_MASS_ROW_SUM] = n * d;
+  bytes[ARRAY_GATHER_WEIGHT] = n * (4.0 * S + 1.0) * d;
+  bytes[ARRAY_SCRATCH] = 10.0 * N * d;
+  bytes[ARRAY_SPHERE_XYZ] = 3.0 * spheres * d;
+  bytes[ARRAY_SPHERE_VELOCITY] = 3.0 * spheres * d;
+  bytes[ARRAY_STAGE] = 24.0 * n * d;
+  bytes[ARRAY_SAMPLE_HESSIAN] = 27.0 * N * d;
+  bytes[ARRAY_SYSTEM] = 3.0 * n * (half_width + 1.0) * d;
+  bytes[ARRAY_FACTOR_ROW] = (half_width + 1.0) * d;
+  bytes[ARRAY_BACKUP] = (12.0 * n + VSC_STICK_SIZE * spheres) * d;
+  bytes[ARRAY_TOUCH] = VSC_TOUCH_SIZE * spheres * d;
+  bytes[ARRAY_GATHER_FIRST] = 3.0 * n * sizeof(int);
+  bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
+  bytes[ARRAY_IS_PINNED] = n;
+}
+
+// Offsets of the arrays in the block (bytes, aligned) and the block's size.
+static double array_offsets(const vsc_rod_def* def, double offset[ARRAY_COUNT]) {
+  double bytes[ARRAY_COUNT], total = 0.0;
+  array_bytes(def, bytes);
+  for (int i = 0; i < ARRAY_COUNT; ++i) {
+    offset[i] = total;
+    total += ceil(bytes[i] / ARRAY_ALIGNMENT) * ARRAY_ALIGNMENT;
+  }
+  return total;
+}
+
+double vsc_rod_memory_bytes(const vsc_rod_def* def) {
+  double offset[ARRAY_COUNT];
+  double bytes = sizeof(vsc_rod) + array_offsets(def, offset) + ARRAY_ALIGNMENT;
   double spheres = def->collision_sphere_count;
-  double tethers = def->mesentery_points > 0 ? def->mesentery_points : 1;
-  double per_sample = sizeof(vsc_basis) + 10.0 * sizeof(double) + 27.0 * sizeof(double);
-  double per_point = 9.0 * sizeof(double) + 1.0 + 3.0 * sizeof(int) + (4.0 * S + 1.0) * sizeof(double) +
-                     24.0 * sizeof(double) + 12.0 * sizeof(double) +
-                     3.0 * (jacobian_half_width_bound(def->samples_per_segment) + 1.0) * sizeof(double);
-  double per_sphere = sizeof(vsc_basis) + 6.0 * sizeof(double) + (VSC_STICK_SIZE + VSC_TOUCH_SIZE) * sizeof(double);
-  double bytes = sizeof(vsc_rod) + N * per_sample + n * per_point + spheres * per_sphere +
-                 tethers * sizeof(vsc_basis) + (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
   if (spheres >= 1.0 && spheres <= (double)VSC_MAX_COLLISION_SPHERES)
     bytes += vsc_grid_memory_bytes((int)spheres) + vsc_contact_lists_memory_bytes((int)spheres);
   return bytes;
+}
+
+// Point every array of `rod` into one zeroed block carved by the size table.
+// Returns 0, or -1 if memory ran out.
+static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
+  double offset[ARRAY_COUNT];
+  double total = array_offsets(def, offset);
+  rod->block = calloc(1, (size_t)(total + ARRAY_ALIGNMENT));
+  if (!rod->block) return -1;
+  char* base = (char*)rod->block;
+  base += (size_t)((ARRAY_ALIGNMENT - (double)((uintptr_t)base % (uintptr_t)ARRAY_ALIGNMENT)));
+  #define AT(index) ((void*)(base + (size_t)offset[index]))
+  rod->sample_basis = (vsc_basis*)AT(ARRAY_SAMPLE_BASIS);
+  rod->sphere_basis = (vsc_basis*)AT(ARRAY_SPHERE_BASIS);
+  rod->tether_basis = (vsc_basis*)AT(ARRAY_TETHER_BASIS);
+  rod->mass_band = (double*)AT(ARRAY_MASS_BAND);
+  rod->mass_factor = (double*)AT(ARRAY_MASS_FACTOR);
+  rod->mass_row_sum = (double*)AT(ARRAY_MASS_ROW_SUM);
+  rod->gather_weight = (double*)AT(ARRAY_GATHER_WEIGHT);
+  rod->scratch = (double*)AT(ARRAY_SCRATCH);
+  rod->sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
+  rod->sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
+  rod->stage = (double*)AT(ARRAY_STAGE);
+  rod->sample_hessian = (double*)AT(ARRAY_SAMPLE_HESSIAN);
+  rod->system = (double*)AT(ARRAY_SYSTEM);
+  rod->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
+  rod->backup = (double*)AT(ARRAY_BACKUP);
+  rod->touch = (double*)AT(ARRAY_TOUCH);
+  rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
+  rod->pinned = (int*)AT(ARRAY_PINNED);
+  rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);
+  #undef AT
+  return 0;
 }
 
 vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
@@ -204,29 +300,8 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->rest_spacing = def->length / (double)(N - 1);
   rod->stretch_spring = def->stretch_stiffness * (double)(N - 1);
   rod->bend_spring = def->bend_stiffness * (double)(N - 1);
-  rod->sample_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * N);
-  rod->sphere_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * spheres);
-  rod->mass_band = (double*)malloc(sizeof(double) * 4 * n);
-  rod->mass_factor = (double*)malloc(sizeof(double) * 4 * n);
-  rod->mass_row_sum = (double*)malloc(sizeof(double) * n);
-  rod->pinned = (int*)malloc(sizeof(int) * (def->pinned_count > 0 ? def->pinned_count : 1));
-  rod->is_pinned = (unsigned char*)calloc((size_t)n, 1);
-  rod->gather_first = (int*)malloc(sizeof(int) * 3 * (size_t)n);
-  // each sample feeds 4 control points, so the transpose holds 4 N <= n (4 S + 1) weights
-  rod->gather_weight = (double*)malloc(sizeof(double) * (size_t)n * (4 * (size_t)S + 1));
-  rod->scratch = (double*)malloc(sizeof(double) * 10 * (size_t)N);
-  rod->sphere_xyz = (double*)malloc(sizeof(double) * 3 * spheres);
-  rod->sphere_velocity = (double*)calloc(3 * (size_t)spheres, sizeof(double));
-  rod->stage = (double*)malloc(sizeof(double) * 8 * 3 * n);
-  rod->sample_hessian = (double*)malloc(sizeof(double) * 27 * (size_t)N);
-  rod->backup = (double*)malloc(sizeof(double) * (12 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres));
-  rod->touch = (double*)calloc((size_t)spheres * VSC_TOUCH_SIZE, sizeof(double));
-  rod->tether_basis = (vsc_basis*)malloc(sizeof(vsc_basis) * (size_t)(def->mesentery_points > 0 ? def->mesentery_points : 1));
-  vsc_grid_create(spheres, &rod->grid);
-  rod->lists = vsc_contact_lists_create(spheres);
-  if (!rod->sample_basis || !rod->sphere_basis || !rod->mass_band || !rod->mass_factor ||
-      !rod->mass_row_sum || !rod->pinned || !rod->is_pinned || !rod->gather_first || !rod->gather_weight ||
-      !rod->scratch || !rod->sphere_xyz || !rod->sphere_velocity || !rod->stage || !rod->sample_hessian || !rod->backup || !rod->touch || !rod->grid || !rod->lists || !rod->tether_basis) {
+  if (allocate_arrays(rod, def) || vsc_grid_create(spheres, &rod->grid) != VSC_OK ||
+      !(rod->lists = vsc_contact_lists_create(spheres))) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
@@ -259,11 +334,9 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
     reach = span > reach ? span : reach;
   }
   rod->jacobian_half_width = 3 * reach + 2;
-  rod->system = (double*)malloc(sizeof(double) * 3 * (size_t)n * (size_t)(rod->jacobian_half_width + 1));
-  rod->factor_row = (double*)malloc(sizeof(double) * (size_t)(rod->jacobian_half_width + 1));
-  if (!rod->system || !rod->factor_row) {
+  if (rod->jacobian_half_width > jacobian_half_width_bound(S)) {  // the bound sized `system`; never past it
     vsc_rod_destroy(rod);
-    return VSC_ERROR_OUT_OF_MEMORY;
+    return VSC_ERROR_INVALID_ARGUMENT;
   }
   for (int i = 0; i < def->mesentery_points; ++i)
     rod->tether_basis[i] = vsc_spline_basis(n, ((double)i + 0.5) / (double)def->mesentery_points);
@@ -284,25 +357,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
 
 void vsc_rod_destroy(vsc_rod* rod) {
   if (!rod) return;
-  free(rod->sample_basis);
-  free(rod->sphere_basis);
-  free(rod->mass_band);
-  free(rod->mass_factor);
-  free(rod->mass_row_sum);
-  free(rod->pinned);
-  free(rod->is_pinned);
-  free(rod->gather_first);
-  free(rod->gather_weight);
-  free(rod->scratch);
-  free(rod->sphere_xyz);
-  free(rod->sphere_velocity);
-  free(rod->stage);
-  free(rod->sample_hessian);
-  free(rod->system);
-  free(rod->factor_row);
-  free(rod->backup);
-  free(rod->touch);
-  free(rod->tether_basis);
+  free(rod->block);
   vsc_grid_destroy(rod->grid);
   vsc_contact_lists_destroy(rod->lists);
   free(rod);

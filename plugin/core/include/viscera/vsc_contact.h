@@ -42,12 +42,8 @@
 #ifndef VISCERA_VSC_CONTACT_H
 #define VISCERA_VSC_CONTACT_H
 
+#include "viscera/vsc_friction.h"
 #include "viscera/vsc_rod.h"
-
-/// Friction state per sphere: rigid partner (geom index, -1 none), its
-/// elongation (m, 3), self partner of the segment starting at this sphere
-/// (segment index, -1 none), its elongation (m, 3).
-#define VSC_STICK_SIZE 8
 
 /// Deep contacts push out at a bounded speed. A sphere that starts deep in a
 /// geom (placed there) would be thrown out at d sqrt(k / m) by the spring's
@@ -70,9 +66,6 @@
 /// pressed deeper would be half crushed): a deeper start is pushed out no
 /// harder, so an explicit substep overshoots the push-out speed less.
 #define VSC_SPRING_DEPTH 0.5
-
-/// Write the "no contact" friction state for every sphere (VSC_STICK_SIZE each).
-void vsc_stick_clear(double* stick, int sphere_count);
 
 /// The deepest sphere-geom contact found by vsc_rod_contact_energy.
 typedef struct vsc_deepest_contact {

@@ -19,13 +19,8 @@ typedef struct vsc_grasp {
   double anchor_velocity[3];  ///< the anchor's velocity (m/s)
   double stiffness;           ///< spring stiffness k (N/m, >= 0)
   double damping;             ///< spring damping c (N s/m, >= 0)
-  double reaction[3];         ///< output: force on the anchor (N), added times the world's wrench_weight
+  double reaction[3];         ///< output: force on the anchor (N), added over a step's evaluations as their average
 } vsc_grasp;
-
-/// Add the grasp springs' forces to Q (N, 3n) and their reactions to each
-/// grasp's `reaction` times world->wrench_weight.
-void vsc_rod_grasp_forces(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                          double* Q);
 
 /// The axis point nearest to `point` (m): writes its abscissa s in [0, 1] and
 /// returns its distance (m). Exact on the sample polyline (the springs'

@@ -1,42 +1,43 @@
-// Time integration of the rod: leapfrog (the default), the paper's RK4 (France
-// et al. 2002, 3.1.4), symplectic Euler and linearly implicit Euler; the
-// substeps a timestep needs; divergence recovery.
+// Time integration of the rod: the integrators (leapfrog, the default; the
+// paper's RK4, France et al. 2002, 3.1.4; symplectic Euler; linearly implicit
+// Euler) and the step that drives them: substeps, friction, the divergence
+// guard and its retries. The substeps a timestep needs are in vsc_stability.h.
 #ifndef VISCERA_VSC_INTEGRATE_H
 #define VISCERA_VSC_INTEGRATE_H
 
 #include "viscera/vsc_rod.h"
 
-/// Integrators selectable by name.
-typedef enum vsc_integrator {
-  /// Classical 4th-order Runge-Kutta: 4 force evaluations a substep, stable to
-  /// h < 2.8 / omega_max, energy error O(h^4) (it loses energy, never gains).
-  VSC_INTEGRATOR_RK4 = 0,
-  /// Symplectic (semi-implicit) Euler, v += h a(q, v), then q += h v: 1
-  /// evaluation a substep, stable to h < 2 / omega_max (less with damping, see
-  /// vsc_stable_substeps), first order, and its energy error stays bounded (it
-  /// conserves a nearby energy). The mass-proportional damping is exact, v e^(-c h).
-  VSC_INTEGRATOR_SYMPLECTIC_EULER = 1,
-  /// Linearly implicit (backward) Euler: one Newton step of backward Euler per
-  /// substep, [(1 + h c) M + h D + h^2 K] v1 = M v0 + h (Q + D v0), q1 = q0 + h v1,
-  /// with K and D the band Jacobians of vsc_jacobian.h (the global stretch
-  /// term's rank-one part by Sherman-Morrison): O(n), 1 evaluation a substep.
-  /// A-stable (L-stable) on the linearised forces, so the elastic and rigid
-  /// contact stiffness never limit h; first order, and it damps motion whose
-  /// period is not resolved by h. Self-contacts and friction stay explicit.
-  VSC_INTEGRATOR_IMPLICIT = 2,
-  /// Leapfrog (Stormer-Verlet, drift-kick-drift): q += h/2 v, v += h a(q, v),
-  /// q += h/2 v. 1 evaluation a substep and the same stability limit as
-  /// symplectic Euler (h < 2 / omega_max, less with damping), but second
-  /// order, time-reversible and symplectic on the conservative forces (contact
-  /// damping and friction, which read the substep's start velocity, are first
-  /// order in their rates; the mass-proportional damping is exact, v e^(-c h)).
-  /// The default: the shipped scenes' step is bound by stability, where its one
-  /// evaluation buys 0.7 of RK4's four's substep.
-  VSC_INTEGRATOR_LEAPFROG = 3,
-} vsc_integrator;
+/// Largest omega h (omega: a mode's angular frequency, h: the substep) that
+/// vsc_stable_substeps (vsc_stability.h) trusts: RK4's limit is 2 sqrt(2) = 2.83,
+/// symplectic Euler's and leapfrog's 2 (95 % and 90 % of them; the estimate
+/// matches the measured limits within 4 %, docs/validation's stability map).
+#define VSC_RK4_TRUSTED_OMEGA_H 2.7
+#define VSC_EULER_TRUSTED_OMEGA_H 1.8
 
-/// How many integrators there are (the enum's values are 0 to this less 1).
-#define VSC_INTEGRATOR_COUNT 4
+/// The integrators, one row each: X(ID, name, substep function, trusted omega h,
+/// explicit damping, elastic forces implicit). This table is the only list:
+/// the enum below, the names the plugin's `integrator` key accepts
+/// (vsc_integrator_names) and the scheme table the step and the stability
+/// estimate read (src/vsc_schemes.c) all expand it. A new integrator is a row
+/// here and its substep function in src/vsc_schemes.c. Each scheme's
+/// properties are documented at its function.
+///   explicit damping: the scheme applies damping explicitly, which shrinks its
+///     stable substep (omega^2 h^2 + 2 gamma h within the trusted bound's square);
+///   elastic implicit: the elastic forces and the rigid contacts' normal springs
+///     never limit its substep (only the explicit self-contacts and friction do).
+#define VSC_INTEGRATORS(X)                                                                  \
+  X(RK4, "rk4", vsc_rk4_substep, VSC_RK4_TRUSTED_OMEGA_H, 0, 0)                              \
+  X(SYMPLECTIC_EULER, "symplectic_euler", vsc_symplectic_euler_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 0) \
+  X(IMPLICIT, "implicit", vsc_implicit_substep, VSC_EULER_TRUSTED_OMEGA_H, 0, 1)             \
+  X(LEAPFROG, "leapfrog", vsc_leapfrog_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 0)
+
+#define VSC_INTEGRATOR_ENUM_(id, name, substep, trusted, explicit_damping, elastic_implicit) VSC_INTEGRATOR_##id,
+/// Integrators selectable by name, in table order (RK4 = 0, ..., LEAPFROG = 3).
+typedef enum vsc_integrator { VSC_INTEGRATORS(VSC_INTEGRATOR_ENUM_) VSC_INTEGRATOR_COUNT } vsc_integrator;
+#undef VSC_INTEGRATOR_ENUM_
+
+/// The integrators' names in enum order, NULL-terminated (static storage).
+extern const char* const vsc_integrator_names[VSC_INTEGRATOR_COUNT + 1];
 
 /// A finite state counts as diverged when a control point moves faster than
 /// this (m/s): nothing in a surgical scene does.
@@ -87,45 +88,5 @@ typedef struct vsc_step_report {
 /// state stays finite. `report` may be NULL.
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
                         const vsc_step_options* options, vsc_step_report* report);
-
-/// Most power iterations of the frequency estimate (each O(n)); it stops
-/// earlier, usually after 10 to 20, once omega^2 changes by less than 1e-3 in
-/// one (it then lies within about 1 % below the limit: the trusted bounds below
-/// leave 5 to 10 %).
-#define VSC_FREQUENCY_ITERATIONS 100
-
-/// ... and at most this many band entries times iterations (at least 12
-/// iterations): a million control points take 12, about a second.
-#define VSC_FREQUENCY_WORK 4e7
-
-/// Largest omega h (omega: a mode's angular frequency, h: the substep) that
-/// vsc_stable_substeps trusts: RK4's limit is 2 sqrt(2) = 2.83, symplectic
-/// Euler's 2 (95 % and 90 % of them; the estimate matches the measured limits
-/// within 4 %, docs/validation's stability map).
-#define VSC_RK4_TRUSTED_OMEGA_H 2.7
-#define VSC_EULER_TRUSTED_OMEGA_H 1.8
-
-/// vsc_stable_substeps never asks for more.
-#define VSC_MAX_AUTO_SUBSTEPS 1024
-
-/// Highest angular frequencies (rad/s) of the rod linearised at q (m): of its
-/// elastic forces (M^-1 K, pinned points held), and of its contact springs
-/// alone, every sphere pressed by a geom in every direction (a rod lying on a
-/// plane has exactly that across it), times sqrt(2) with self-collision (a
-/// pair presses two spheres). Power iteration, O(n) per iteration. Also sets
-/// rod->contact_damping_rate. Overwrites the rod's scratch (samples, stages,
-/// the implicit system).
-void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact);
-
-/// Fewest substeps of `integrator` for a step dt (s) with omega h within the
-/// trusted bound above, omega from the frequencies (rad/s) of
-/// vsc_rod_frequencies (explicit integrators: the larger; implicit: contact,
-/// whose friction and self-contacts it takes explicitly); for leapfrog and
-/// symplectic Euler, which apply damping explicitly, omega^2 h^2 + 2 g h
-/// within the bound's square, g the contact damping rate (1/s,
-/// rod->contact_damping_rate after vsc_rod_frequencies; 0: none); 1 to
-/// VSC_MAX_AUTO_SUBSTEPS.
-int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
-                        double dt);
 
 #endif  // VISCERA_VSC_INTEGRATE_H

@@ -39,6 +39,7 @@
 #include "viscera/vsc_geom.h"
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_spline.h"
+#include "viscera/vsc_world.h"
 
 /// Creation parameters. Initialise with vsc_default_rod_def().
 typedef struct vsc_rod_def {
@@ -115,7 +116,7 @@ void vsc_material_stiffnesses(double young_modulus, double radius, double wall_t
                               double* stretch_stiffness, double* bending_rigidity);
 
 /// A rod: the definition plus caches derived from it and scratch (its layout
-/// is private to the core, src/vsc_rod_internal.h). Evaluation functions write
+/// is private to the core, src/vsc_rod.h). Evaluation functions write
 /// into its scratch, so one rod must not be evaluated from two threads at once
 /// (give each thread its own rod).
 typedef struct vsc_rod vsc_rod;
@@ -133,56 +134,6 @@ double vsc_rod_memory_bytes(const vsc_rod_def* def);
 /// Release a rod created by vsc_rod_create (NULL is allowed).
 void vsc_rod_destroy(vsc_rod* rod);
 
-/// Rigid surroundings of one evaluation (host-owned).
-typedef struct vsc_world {
-  double gravity[3];        ///< gravitational acceleration (m/s^2)
-  const vsc_geom* geoms;    ///< rigid geoms the rod collides with
-  int geom_count;
-  double* geom_wrench;      ///< optional output: reaction on each geom, 6 per geom (force N, torque N m
-                            ///< about the geom position, world frame), added times wrench_weight
-  double wrench_weight;     ///< weight of this evaluation's reactions (vsc_rod_step sets it per stage)
-  const double* stick;      ///< optional friction state, VSC_STICK_SIZE per sphere (see vsc_contact.h)
-  struct vsc_grasp* grasps; ///< optional held points (see vsc_grasp.h); their reactions are written
-  int grasp_count;
-} vsc_world;
-
-/// Generalised forces on control points, Q = Q_gravity + Q_contact - grad E
-/// (N, 3n interleaved, overwritten). Damping is not included (see
-/// vsc_rod_acceleration). Reactions on geoms go to world->geom_wrench.
-void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                    double* generalized_force);
-
-/// Accelerations a (m/s^2, 3n, overwritten) from positions q and velocities v:
-/// a = M^{-1} Q - damping v, and a = 0 at pinned points. O(n).
-void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
-                          double* acceleration);
-
-/// Elastic energy E (J): springs, global stretch and mesentery tethers.
-double vsc_rod_elastic_energy(vsc_rod* rod, const double* q);
-
-/// Kinetic + elastic energy (J). Remembers the last state it was asked about,
-/// so the energy at one step's end is not computed again at the next step's start.
-double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v);
-
-/// Gravitational potential energy (J), zero at the origin.
-double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q);
-
-/// Kinetic energy 1/2 v^T M v (J).
-double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
-
-/// Length of the axis (m), as the sum of the sample spacings.
-double vsc_rod_length(vsc_rod* rod, const double* q);
-
-/// Place the sample points from control points q (read them with vsc_rod_sample_point).
-void vsc_rod_update_samples(vsc_rod* rod, const double* q);
-
-/// Place the collision spheres and their velocities from q and v (v may be NULL:
-/// velocities are then left untouched); read them with vsc_rod_sphere_centres.
-void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
-
-/// The collision sphere centres (m, 3 per sphere) as last placed (owned by the rod).
-const double* vsc_rod_sphere_centres(const vsc_rod* rod);
-
 /// Half-bandwidth of the rod's force Jacobian over its 3n unknowns: the band
 /// size the vsc_jacobian.h functions write.
 int vsc_rod_jacobian_half_width(const vsc_rod* rod);
@@ -190,12 +141,15 @@ int vsc_rod_jacobian_half_width(const vsc_rod* rod);
 /// The rod's control points n.
 int vsc_rod_control_count(const vsc_rod* rod);
 
-/// The rod's spring sample points N (vsc_rod_update_samples places them).
+/// The rod's spring sample points N (vsc_rod_update_samples, vsc_place.h, places them).
 int vsc_rod_sample_count(const vsc_rod* rod);
 
 /// Sample point `a` (m, 3) as the last vsc_rod_update_samples (or force
 /// evaluation) placed it.
 void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]);
+
+/// The collision sphere centres (m, 3 per sphere) as last placed (owned by the rod).
+const double* vsc_rod_sphere_centres(const vsc_rod* rod);
 
 /// The stiffest contact mode's damping rate c omega_contact^2 / k (1/s), as
 /// vsc_rod_frequencies last set it (0 before).

@@ -1,12 +1,12 @@
 // The rod's layout: its caches and scratch, private to the core (and its tests).
 // The public API (viscera/vsc_rod.h) sees vsc_rod as an opaque handle.
-#ifndef VISCERA_VSC_ROD_INTERNAL_H
-#define VISCERA_VSC_ROD_INTERNAL_H
+#ifndef VISCERA_SRC_VSC_ROD_H
+#define VISCERA_SRC_VSC_ROD_H
 
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_rod.h"
 
-typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact.c
+typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact_lists.c
 
 /// A rod (viscera/vsc_rod.h): the definition plus caches derived from it. Owns
 /// all its arrays.
@@ -61,6 +61,7 @@ struct vsc_rod {
   int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
   vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
+  void* block;               ///< the one allocation every array above lives in (vsc_rod.c's size table)
 };
 
-#endif  // VISCERA_VSC_ROD_INTERNAL_H
+#endif  // VISCERA_SRC_VSC_ROD_H

@@ -1,0 +1,16 @@
+// Placement: where the rod's sample points and collision spheres are, from its
+// control points. Every later stage of an evaluation (forces, contacts, grasps)
+// reads what placement wrote; placement reads nothing but q and v.
+#ifndef VISCERA_VSC_PLACE_H
+#define VISCERA_VSC_PLACE_H
+
+#include "viscera/vsc_rod.h"
+
+/// Place the sample points from control points q (m); read them with vsc_rod_sample_point.
+void vsc_rod_update_samples(vsc_rod* rod, const double* q);
+
+/// Place the collision spheres and their velocities from q (m) and v (m/s; may
+/// be NULL: velocities are then left untouched); read them with vsc_rod_sphere_centres.
+void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
+
+#endif  // VISCERA_VSC_PLACE_H

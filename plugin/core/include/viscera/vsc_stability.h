@@ -1,0 +1,43 @@
+// How small a substep must be: the rod's highest frequencies, elastic and
+// contact, and the fewest substeps of an integrator that keep omega h within
+// the bound it trusts (vsc_integrate.h's table).
+#ifndef VISCERA_VSC_STABILITY_H
+#define VISCERA_VSC_STABILITY_H
+
+#include "viscera/vsc_integrate.h"
+#include "viscera/vsc_rod.h"
+
+/// Most power iterations of the frequency estimate (each O(n)); it stops
+/// earlier, usually after 10 to 20, once omega^2 changes by less than 1e-3 in
+/// one (it then lies within about 1 % below the limit: the trusted bounds below
+/// leave 5 to 10 %).
+#define VSC_FREQUENCY_ITERATIONS 100
+
+/// ... and at most this many band entries times iterations (at least 12
+/// iterations): a million control points take 12, about a second.
+#define VSC_FREQUENCY_WORK 4e7
+
+/// vsc_stable_substeps never asks for more.
+#define VSC_MAX_AUTO_SUBSTEPS 1024
+
+/// Highest angular frequencies (rad/s) of the rod linearised at q (m): of its
+/// elastic forces (M^-1 K, pinned points held), and of its contact springs
+/// alone, every sphere pressed by a geom in every direction (a rod lying on a
+/// plane has exactly that across it), times sqrt(2) with self-collision (a
+/// pair presses two spheres). Power iteration, O(n) per iteration. Also sets
+/// rod->contact_damping_rate. Overwrites the rod's scratch (samples, stages,
+/// the implicit system).
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact);
+
+/// Fewest substeps of `integrator` for a step dt (s) with omega h within the
+/// trusted bound of its row in vsc_integrate.h, omega from the frequencies (rad/s) of
+/// vsc_rod_frequencies (explicit integrators: the larger; implicit: contact,
+/// whose friction and self-contacts it takes explicitly); for the integrators
+/// that apply damping explicitly (leapfrog, symplectic Euler), omega^2 h^2 + 2 g h
+/// within the bound's square, g the contact damping rate (1/s,
+/// rod->contact_damping_rate after vsc_rod_frequencies; 0: none); 1 to
+/// VSC_MAX_AUTO_SUBSTEPS.
+int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
+                        double dt);
+
+#endif  // VISCERA_VSC_STABILITY_H

@@ -1,0 +1,389 @@
+// Candidate contact lists (Verlet lists, see viscera/vsc_contact.h): built by
+// grid passes or, for short chains, by testing every pair; kept while nothing
+// moved by half the margin; sorted, so forces do not depend on when or how
+// they were built.
+#include "vsc_contact_lists.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vsc_capsule.h"
+
+// pair capacities per sphere: dense piles hold ~30 neighbouring segments within 2r + m
+#define SELF_PAIRS_PER_SPHERE 64
+#define GEOM_PAIRS_PER_SPHERE 8
+// up to this many spheres the lists are built by testing every pair (no
+// hashing, cache-friendly, already sorted); past it through the grid, O(n)
+#define DIRECT_BUILD_SPHERES 1024
+
+double vsc_contact_lists_memory_bytes(int spheres) {
+  return sizeof(vsc_contact_lists) +
+         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) +
+                            18.0 * sizeof(double));
+}
+
+vsc_contact_lists* vsc_contact_lists_create(int spheres) {
+  vsc_contact_lists* l = (vsc_contact_lists*)calloc(1, sizeof(vsc_contact_lists));
+  if (!l) return NULL;
+  l->sphere_count = spheres;
+  l->self_capacity = SELF_PAIRS_PER_SPHERE * spheres;
+  l->geom_capacity = GEOM_PAIRS_PER_SPHERE * spheres;
+  l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
+  l->self_distance = (double*)malloc(sizeof(double) * (size_t)l->self_capacity);
+  l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
+  l->geom_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
+  l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
+  l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
+  l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
+  l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
+  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->sphere_xyz ||
+      !l->geom_sphere_xyz || !l->segment || !l->moved) {
+    vsc_contact_lists_destroy(l);
+    return NULL;
+  }
+  l->segment_moved = l->moved + spheres;
+  l->geom_moved = l->segment_moved + spheres;
+  l->build_scratch = l->geom_moved + spheres;
+  return l;
+}
+
+void vsc_contact_lists_destroy(vsc_contact_lists* l) {
+  if (!l) return;
+  free(l->self_pairs);
+  free(l->self_distance);
+  free(l->geom_pairs);
+  free(l->geom_distance);
+  free(l->sphere_xyz);
+  free(l->geom_sphere_xyz);
+  free(l->segment);
+  free(l->moved);
+  free(l->geom_pose);
+  free(l);
+}
+
+// Pairs are sorted so that the force sum runs in one order whatever the grid's
+// hash order: results do not depend on bucket layout. Heap sort, in place: the
+// C library's qsort mallocs a buffer for more than 1 KB of pairs, and the step
+// loop must not touch the heap.
+static int pair_less(const int* pairs, int a, int b) {
+  const int *x = pairs + 2 * a, *y = pairs + 2 * b;
+  return x[0] < y[0] || (x[0] == y[0] && x[1] < y[1]);
+}
+
+static void swap_pairs(int* pairs, int a, int b) {
+  int first = pairs[2 * a], second = pairs[2 * a + 1];
+  pairs[2 * a] = pairs[2 * b];
+  pairs[2 * a + 1] = pairs[2 * b + 1];
+  pairs[2 * b] = first;
+  pairs[2 * b + 1] = second;
+}
+
+static void sift_down(int* pairs, int root, int count) {
+  for (;;) {
+    int child = 2 * root + 1;
+    if (child >= count) return;
+    if (child + 1 < count && pair_less(pairs, child, child + 1)) ++child;
+    if (!pair_less(pairs, root, child)) return;
+    swap_pairs(pairs, root, child);
+    root = child;
+  }
+}
+
+static void sort_pairs(int* pairs, int count) {
+  for (int root = count / 2 - 1; root >= 0; --root) sift_down(pairs, root, count);
+  for (int end = count - 1; end > 0; --end) {
+    swap_pairs(pairs, 0, end);
+    sift_down(pairs, 0, end);
+  }
+}
+
+typedef struct build {
+  vsc_rod* rod;
+  const vsc_world* world;
+  int geom;
+  double reach;   // sphere-geom candidate distance, r + m (m)
+  int overflow;
+} build;
+
+// Add self pair (lo, hi) if its segments are within 2r + m (exact distance):
+// while no sphere moves m / 2 the distance shrinks by less than m, so the
+// others cannot touch before the lists are rebuilt; overlapping grid boxes alone
+// admit several times more pairs.
+static void keep_self(build* b, int lo, int hi) {
+  vsc_contact_lists* l = b->rod->lists;
+  double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
+  double distance = vsc_segment_gap(b->rod->sphere_xyz, lo, hi, &s, &t, d);
+  if (distance > limit) return;
+  if (l->self_count >= l->self_capacity) {
+    b->overflow = 1;
+    return;
+  }
+  l->self_pairs[2 * l->self_count] = lo;
+  l->self_pairs[2 * l->self_count + 1] = hi;
+  l->self_distance[l->self_count] = distance;
+  ++l->self_count;
+}
+
+static void collect_self(void* context, int earlier, int item) {
+  build* b = (build*)context;
+  int lo = earlier < item ? earlier : item, hi = earlier < item ? item : earlier;
+  if (hi - lo < b->rod->self_gap) return;
+  keep_self(b, lo, hi);
+}
+
+// The distance filter needs a distance that changes no faster than the point
+// moves: exact distances do, a height field's does not (it jumps at its
+// sides), so a height field keeps every grid candidate and is never skipped.
+static double filter_distance(const vsc_geom* geom, const double* x) {
+  double n[3];
+  return geom->type != VSC_GEOM_HEIGHTFIELD ? vsc_geom_distance(geom, x, n) : -INFINITY;
+}
+
+static void collect_geom(void* context, int i) {
+  build* b = (build*)context;
+  vsc_contact_lists* l = b->rod->lists;
+  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->sphere_xyz + 3 * i);
+  if (distance > b->reach) return;
+  if (l->geom_count >= l->geom_capacity) {
+    b->overflow = 1;
+    return;
+  }
+  l->geom_pairs[2 * l->geom_count] = b->geom;
+  l->geom_pairs[2 * l->geom_count + 1] = i;
+  l->geom_distance[l->geom_count] = distance;
+  ++l->geom_count;
+}
+
+static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
+
+void vsc_contact_lists_update_segments(vsc_rod* rod) {
+  const double* x = rod->sphere_xyz;
+  for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a) {
+    double* out = rod->lists->segment + 4 * a;
+    double length2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
+      length2 += (x[3 * a + 3 + c] - x[3 * a + c]) * (x[3 * a + 3 + c] - x[3 * a + c]);
+    }
+    out[3] = 0.5 * sqrt(length2);
+  }
+}
+
+// Every segment pair beyond the neighbours, in order: a bounding-sphere test
+// over contiguous arrays (vectorised), then the exact distance. For chains up
+// to DIRECT_BUILD_SPHERES this costs a fraction of a grid pass, whose cells at
+// the pair reach hold dozens of segments in a pile.
+static void build_self_direct(vsc_rod* rod, build* b) {
+  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists_update_segments(rod);
+  int segments = rod->def.collision_sphere_count - 1;
+  double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->def.radius;
+  const double* seg = l->segment;  // midpoints and half lengths, current
+  double* mx = l->build_scratch;
+  double* my = mx + segments;
+  double* mz = my + segments;
+  double* half = mz + segments;
+  double* excess = half + segments;  // per segment: squared distance less squared reach
+  for (int a = 0; a < segments; ++a) {
+    mx[a] = seg[4 * a];
+    my[a] = seg[4 * a + 1];
+    mz[a] = seg[4 * a + 2];
+    half[a] = seg[4 * a + 3] + 0.5 * limit;
+  }
+  for (int a = 0; a < segments && !b->overflow; ++a) {
+    int first = a + rod->self_gap;
+    double x = mx[a], y = my[a], z = mz[a], ha = half[a];
+    for (int c = first; c < segments; ++c) {  // |m_a - m_c| <= 2r + m + half lengths
+      double dx = mx[c] - x, dy = my[c] - y, dz = mz[c] - z, r = ha + half[c];
+      excess[c] = dx * dx + dy * dy + dz * dz - r * r;
+    }
+    for (int c = first; c < segments; ++c)
+      if (excess[c] <= 0.0) keep_self(b, a, c);
+  }
+}
+
+// The self pairs: segments within 2r + m, with their distances. Returns 0 if
+// the list overflowed (the caller then evaluates without lists).
+static int build_self(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int spheres = rod->def.collision_sphere_count;
+  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  build b = {rod, world, -1, r + margin, 0};
+  l->self_count = 0;
+  if (spheres <= DIRECT_BUILD_SPHERES) {
+    build_self_direct(rod, &b);
+  } else {  // a grid pass over segment boxes inflated by half the margin, sized to the longest segment
+    double longest = 0.0;
+    for (int k = 0; k + 1 < spheres; ++k)
+      for (int a = 0; a < 3; ++a)
+        longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
+    vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+    for (int k = 0; k + 1 < spheres; ++k) {
+      const double* x0 = rod->sphere_xyz + 3 * k;
+      const double* x1 = x0 + 3;
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = fmin(x0[a], x1[a]) - inflated;
+        hi[a] = fmax(x0[a], x1[a]) + inflated;
+      }
+      vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+    }
+    sort_pairs(l->self_pairs, l->self_count);
+    for (int k = 0; k < l->self_count; ++k) {  // the distances, in the sorted order
+      double s, t, d[3];
+      l->self_distance[k] = vsc_segment_gap(rod->sphere_xyz, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
+    }
+  }
+  memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  l->self_built = !b.overflow;
+  return l->self_built;
+}
+
+// The (geom, sphere) pairs: for a few hundred spheres, each geom against every
+// sphere in its box (no hashing); else a grid pass over sphere boxes, then a
+// query per geom. Built apart from the self pairs, so a tool moving through a
+// resting bowel costs only this. Returns 0 if the list overflowed.
+static int build_geoms(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int spheres = rod->def.collision_sphere_count;
+  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  build b = {rod, world, -1, r + margin, 0};
+  l->geom_count = 0;
+  double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+  int direct = spheres <= DIRECT_BUILD_SPHERES;
+  if (!direct) vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
+  for (int i = 0; i < spheres; ++i) {
+    const double* x = rod->sphere_xyz + 3 * i;
+    double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
+    double hi[3] = {x[0] + inflated, x[1] + inflated, x[2] + inflated};
+    for (int a = 0; a < 3; ++a) {
+      rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
+      rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
+    }
+    if (!direct) vsc_grid_insert(rod->grid, i, lo, hi, no_pair, &b);
+  }
+  for (int g = 0; g < world->geom_count; ++g) {
+    const vsc_geom* geom = &world->geoms[g];
+    b.geom = g;
+    int first = l->geom_count, visited = -1;
+    if (geom->bound_radius > 0.0) {
+      double lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = fmax(geom->box[a] - 0.5 * margin, rod_box[a]);
+        hi[a] = fmin(geom->box[3 + a] + 0.5 * margin, rod_box[3 + a]);
+      }
+      if (direct) {  // the spheres whose boxes overlap the geom's, in order
+        visited = 0;
+        if (lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])
+          for (int i = 0; i < spheres; ++i) {
+            const double* x = rod->sphere_xyz + 3 * i;
+            if (x[0] + inflated >= lo[0] && x[0] - inflated <= hi[0] && x[1] + inflated >= lo[1] &&
+                x[1] - inflated <= hi[1] && x[2] + inflated >= lo[2] && x[2] - inflated <= hi[2])
+              collect_geom(&b, i);
+          }
+      } else {
+        visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, collect_geom, &b);
+      }
+    }
+    if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
+      for (int i = 0; i < spheres; ++i) collect_geom(&b, i);
+    if (!direct) {  // grid order: sort, then the distances in that order
+      sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
+      for (int k = first; k < l->geom_count; ++k)
+        l->geom_distance[k] = filter_distance(geom, rod->sphere_xyz + 3 * l->geom_pairs[2 * k + 1]);
+    }
+  }
+  memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  if (world->geom_count > l->built_geom_capacity) {
+    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 13 * (size_t)world->geom_count);
+    if (!poses) return 0;
+    l->geom_pose = poses;
+    l->built_geom_capacity = world->geom_count;
+  }
+  for (int g = 0; g < world->geom_count; ++g) {
+    memcpy(l->geom_pose + 12 * g, world->geoms[g].position, sizeof(double) * 3);
+    memcpy(l->geom_pose + 12 * g + 3, world->geoms[g].rotation, sizeof(double) * 9);
+  }
+  l->built_geoms = world->geom_count;
+  l->geoms = world->geoms;
+  l->geoms_built = !b.overflow;
+  return l->geoms_built;
+}
+
+// Distance each sphere moved (m) from `snapshot` to `x` (3 per sphere) into
+// `moved`; restrict parameters: the loop vectorises.
+VSC_VECTOR_CLONES static void distances_moved(const double* restrict x, const double* restrict snapshot,
+                                              double* restrict moved, int spheres) {
+  for (int i = 0; i < spheres; ++i) {
+    double dx = x[3 * i] - snapshot[3 * i], dy = x[3 * i + 1] - snapshot[3 * i + 1], dz = x[3 * i + 2] - snapshot[3 * i + 2];
+    moved[i] = sqrt(dx * dx + dy * dy + dz * dz);
+  }
+}
+
+// Distance each sphere moved from `snapshot` (3 per sphere) into `moved`;
+// returns 1 while none moved by more than half the margin.
+static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* moved) {
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
+  int spheres = rod->def.collision_sphere_count;
+  distances_moved(rod->sphere_xyz, snapshot, moved, spheres);
+  double most = 0.0;
+  for (int i = 0; i < spheres; ++i) most = moved[i] > most ? moved[i] : most;
+  return most <= half;  // NaN: never valid
+}
+
+// The self pairs still hold every possible self-contact while no sphere moved
+// by half the margin since they were built.
+static int self_valid(const vsc_rod* rod) {
+  vsc_contact_lists* l = rod->lists;
+  if (!l->self_built || !sphere_moves(rod, l->sphere_xyz, l->moved)) return 0;
+  for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a)
+    l->segment_moved[a] = l->moved[a] > l->moved[a + 1] ? l->moved[a] : l->moved[a + 1];
+  return 1;
+}
+
+// The geom pairs still hold every possible contact while no sphere and no geom
+// moved by half the margin since they were built. Writes each geom's surface
+// motion bound after the poses.
+static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
+  if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
+  for (int g = 0; g < world->geom_count; ++g) {
+    const vsc_geom* geom = &world->geoms[g];
+    double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
+    const double* pose = l->geom_pose + 12 * g;
+    double moved = 0.0, turned = 0.0;
+    for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
+    for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
+    if (geom->bound_radius > 0.0) {
+      // no surface point moved more than |dp| + R ||dR||_F
+      shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned);
+      if (!(shift[g] <= half)) return 0;
+    } else if (moved != 0.0 || turned != 0.0) {
+      return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
+    } else {
+      shift[g] = 0.0;
+    }
+  }
+  return 1;
+}
+
+int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int self_fresh = 0, geoms_fresh = 0, spheres = rod->def.collision_sphere_count;
+  int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
+  int geoms_ok = geoms_valid(rod, world) || (geoms_fresh = 1, build_geoms(rod, world));
+  if (!self_ok || !geoms_ok) {  // a list overflowed (an extreme pile)
+    l->self_built = l->geoms_built = 0;
+    return 0;
+  }
+  // just built: nothing moved since
+  if (self_fresh) memset(l->segment_moved, 0, sizeof(double) * (size_t)spheres);
+  if (geoms_fresh) {
+    memset(l->geom_moved, 0, sizeof(double) * (size_t)spheres);
+    memset(l->geom_pose + 12 * (size_t)l->built_geom_capacity, 0, sizeof(double) * (size_t)world->geom_count);
+  }
+  return 1;
+}

@@ -1,0 +1,57 @@
+// The candidate contact lists of one rod (owned by the rod): which segment
+// pairs and which sphere-geom pairs the narrow phase tests, and how far their
+// parts moved since the lists were built.
+#ifndef VISCERA_SRC_VSC_CONTACT_LISTS_H
+#define VISCERA_SRC_VSC_CONTACT_LISTS_H
+
+#include "viscera/vsc_world.h"
+#include "vsc_rod.h"
+
+/// Candidate lists are built with this margin, as a multiple of the radius:
+/// they stay valid until a sphere or a geom moves by half of it.
+#define VSC_CONTACT_MARGIN 1.0
+
+struct vsc_contact_lists {
+  int sphere_count;
+  int self_count, self_capacity;
+  int* self_pairs;            // candidate sphere pairs a < b, sorted (2 per pair)
+  double* self_distance;      // each self pair's segment distance at the build (m)
+  int geom_count, geom_capacity;
+  int* geom_pairs;            // candidate (geom, sphere) pairs, sorted (2 per pair)
+  double* geom_distance;      // each geom pair's distance at the build (m; -inf: never skipped)
+  int self_built;             // 0: the self pairs must be built
+  int geoms_built;            // 0: the geom pairs must be built
+  int built_geoms;            // geom count at the geom pairs' build
+  int built_geom_capacity;
+  double* sphere_xyz;         // sphere centres at the self pairs' build (3 per sphere) (m)
+  double* geom_sphere_xyz;    // sphere centres at the geom pairs' build (3 per sphere) (m)
+  double* geom_pose;          // geom position and rotation at build (12 per geom), then each
+                              // geom's surface motion since (1 per geom) (m)
+  double* segment;            // per segment, each evaluation: midpoint (m, 3), half length (m)
+  double* moved;              // per sphere, each evaluation: distance moved since the self build (m)
+  double* segment_moved;      // per segment: the larger of its two spheres' `moved` (m)
+  double* geom_moved;         // per sphere: distance moved since the geom build (m)
+  double* build_scratch;      // per segment, during a self build: midpoint (3), reach, excess
+  const vsc_geom* geoms;      // the host's geom array at build
+};
+
+/// Candidate contact lists of one rod of `sphere_count` spheres.
+vsc_contact_lists* vsc_contact_lists_create(int sphere_count);
+void vsc_contact_lists_destroy(vsc_contact_lists* lists);
+
+/// Heap bytes vsc_contact_lists_create(sphere_count) allocates.
+double vsc_contact_lists_memory_bytes(int sphere_count);
+
+/// Make the lists hold every pair that can touch at the rod's placed spheres
+/// (rod->sphere_xyz must be current) and the world's geom poses: keep them
+/// while nothing moved by half the margin, else rebuild. Writes how far each
+/// part moved since the build (segment_moved, geom_moved, the geoms' shifts).
+/// Returns 1, or 0 if a list overflowed (an extreme pile: the caller then tests
+/// every pair; the lists are rebuilt next time).
+int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world);
+
+/// Midpoint and half length of every segment into lists->segment (m), from
+/// the placed spheres.
+void vsc_contact_lists_update_segments(vsc_rod* rod);
+
+#endif  // VISCERA_SRC_VSC_CONTACT_LISTS_H

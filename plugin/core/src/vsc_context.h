@@ -1,0 +1,22 @@
+// The step context: what one step of one rod carries through its stages and
+// mutates on its own account, apart from the host's world (viscera/vsc_world.h)
+// and the rod's caches (vsc_rod.h). vsc_rod_step makes one per step on the
+// stack; vsc_rod_forces makes one for a lone evaluation.
+#ifndef VISCERA_SRC_VSC_CONTEXT_H
+#define VISCERA_SRC_VSC_CONTEXT_H
+
+#include "viscera/vsc_world.h"
+#include "vsc_rod.h"
+
+typedef struct vsc_step_context {
+  vsc_rod* rod;
+  const vsc_world* world;  ///< the host's inputs and where reactions go
+  double* stick;           ///< friction state, VSC_STICK_SIZE per sphere (NULL: none; vsc_friction.h)
+  double dt;               ///< the whole step (s)
+  double wrench_weight;    ///< weight of the current evaluation's reactions: its share of dt, so the
+                           ///< reactions of all a step's evaluations add up to their average over dt
+  const double* unseen;    ///< the velocity change (m/s, 3n) the last substep made after its force
+                           ///< evaluation read v, or NULL (vsc_friction.h's vsc_rod_update_stick)
+} vsc_step_context;
+
+#endif  // VISCERA_SRC_VSC_CONTEXT_H

@@ -1,0 +1,249 @@
+// The rod's elastic forces and energy on the sample points (the model is in
+// viscera/vsc_rod.h): stretch and bend springs with the global stretch term,
+// curvature bending and clamps, the mesentery's tethers; forces gathered onto
+// the control points by virtual work.
+#include "vsc_elastic.h"
+
+#include <math.h>
+#include <stddef.h>
+
+#include "vsc_place.h"
+
+// Vectors and lengths of the springs from sample a to a + gap. Restrict
+// parameters (not restrict locals) are what lets GCC vectorise it.
+VSC_VECTOR_CLONES static void edge_vectors(const double* restrict x, const double* restrict y,
+                                           const double* restrict z, double* restrict ex, double* restrict ey,
+                                           double* restrict ez, double* restrict el, int count, int gap) {
+  for (int a = 0; a < count; ++a) {
+    double dx = x[a + gap] - x[a], dy = y[a + gap] - y[a], dz = z[a + gap] - z[a];
+    ex[a] = dx;
+    ey[a] = dy;
+    ez[a] = dz;
+    el[a] = sqrt(dx * dx + dy * dy + dz * dz);
+  }
+}
+
+// Vectors and lengths of the springs from sample a to a + gap (N - gap of
+// them) into edge_*; returns the sum of their lengths (m).
+static double spring_edges(vsc_rod* rod, int gap) {
+  int count = rod->sample_count - gap;
+  edge_vectors(rod->sample_x, rod->sample_y, rod->sample_z, rod->edge_x, rod->edge_y, rod->edge_z,
+               rod->edge_length, count, gap);
+  const double* el = rod->edge_length;
+  double total = 0.0;  // apart and in order: an ordered sum does not vectorise
+  for (int a = 0; a < count; ++a) total += el[a];
+  return total;
+}
+
+VSC_VECTOR_CLONES static void scale_edges(double* restrict ex, double* restrict ey, double* restrict ez,
+                                          const double* restrict el, int count, double k, double rest,
+                                          double extra) {
+  for (int a = 0; a < count; ++a) {
+    double scale = (k * (el[a] - rest) + extra) / (el[a] + 1e-300);
+    ex[a] *= scale;
+    ey[a] *= scale;
+    ez[a] *= scale;
+  }
+}
+
+// Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
+// (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
+static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
+  scale_edges(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, count, k, rest, extra);
+}
+
+// f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
+// and its last one back. `first`: f starts from zero, written here (no
+// clearing pass). Each element sums in the same order as two separate passes
+// would: (f_a + t_a) - t_{a-gap}, with f_a = 0.0 when first.
+static void add_spring_forces(vsc_rod* rod, int gap, int first) {
+  int N = rod->sample_count, count = N - gap;
+  // distinct blocks of rod->scratch (restrict: the loops vectorise)
+  const double *restrict tx = rod->edge_x, *restrict ty = rod->edge_y, *restrict tz = rod->edge_z;
+  double *restrict fx = rod->force_x, *restrict fy = rod->force_y, *restrict fz = rod->force_z;
+  int low = gap < count ? gap : count, high = gap > count ? gap : count;
+  // [0, low): + only; [gap, count): both; [count, gap): neither; [high, N): - only
+  if (first) {
+    for (int a = 0; a < low; ++a) {
+      fx[a] = 0.0 + tx[a];
+      fy[a] = 0.0 + ty[a];
+      fz[a] = 0.0 + tz[a];
+    }
+    for (int a = gap; a < count; ++a) {
+      fx[a] = (0.0 + tx[a]) - tx[a - gap];
+      fy[a] = (0.0 + ty[a]) - ty[a - gap];
+      fz[a] = (0.0 + tz[a]) - tz[a - gap];
+    }
+    for (int a = count; a < gap; ++a) fx[a] = fy[a] = fz[a] = 0.0;
+    for (int a = high; a < N; ++a) {
+      fx[a] = 0.0 - tx[a - gap];
+      fy[a] = 0.0 - ty[a - gap];
+      fz[a] = 0.0 - tz[a - gap];
+    }
+    return;
+  }
+  for (int a = 0; a < low; ++a) {
+    fx[a] += tx[a];
+    fy[a] += ty[a];
+    fz[a] += tz[a];
+  }
+  for (int a = gap; a < count; ++a) {
+    fx[a] = (fx[a] + tx[a]) - tx[a - gap];
+    fy[a] = (fy[a] + ty[a]) - ty[a - gap];
+    fz[a] = (fz[a] + tz[a]) - tz[a - gap];
+  }
+  for (int a = high; a < N; ++a) {
+    fx[a] -= tx[a - gap];
+    fy[a] -= ty[a - gap];
+    fz[a] -= tz[a - gap];
+  }
+}
+
+// Curvature bending on the sample polyline (see vsc_rod.h): adds its forces
+// F = -dE/dp to force_* if `forces`; returns its energy (J).
+static double curvature_bending(vsc_rod* rod, int forces) {
+  int N = rod->sample_count;
+  double k = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
+  if (!(k > 0.0) || N < 3) return 0.0;
+  const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  for (int a = 1; a + 1 < N; ++a) {
+    double u[3] = {x[a] - x[a - 1], y[a] - y[a - 1], z[a] - z[a - 1]};
+    double w[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
+    double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    double inverse = 1.0 / sqrt(uu * ww);
+    if (!isfinite(inverse)) continue;  // coincident samples: no angle
+    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse;
+    energy += k * (1.0 - c);
+    if (!forces) continue;
+    double du[3], dw[3];  // dc/du and dc/dw
+    for (int i = 0; i < 3; ++i) {
+      du[i] = w[i] * inverse - c * u[i] / uu;
+      dw[i] = u[i] * inverse - c * w[i] / ww;
+    }
+    // F = k dc/dp: p_{a-1} enters u with -1, p_a enters u with +1 and w with -1
+    fx[a - 1] -= k * du[0];
+    fy[a - 1] -= k * du[1];
+    fz[a - 1] -= k * du[2];
+    fx[a] += k * (du[0] - dw[0]);
+    fy[a] += k * (du[1] - dw[1]);
+    fz[a] += k * (du[2] - dw[2]);
+    fx[a + 1] += k * dw[0];
+    fy[a + 1] += k * dw[1];
+    fz[a + 1] += k * dw[2];
+  }
+  // clamps: 2k (1 - t . e / |e|) on the first and last spring edges e
+  int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
+  const double* direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
+  for (int end = 0; end < 2; ++end) {
+    if (!clamped[end]) continue;
+    int a = end ? N - 2 : 0;  // edge from sample a to a + 1
+    const double* t = direction[end];
+    double e[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
+    double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    if (!(length > 0.0)) continue;
+    double c = (t[0] * e[0] + t[1] * e[1] + t[2] * e[2]) / length;
+    energy += 2.0 * k * (1.0 - c);
+    if (!forces) continue;
+    double g[3];  // F on sample a + 1 = 2k dc/de
+    for (int i = 0; i < 3; ++i) g[i] = 2.0 * k * (t[i] - c * e[i] / length) / length;
+    fx[a + 1] += g[0];
+    fy[a + 1] += g[1];
+    fz[a + 1] += g[2];
+    fx[a] -= g[0];
+    fy[a] -= g[1];
+    fz[a] -= g[2];
+  }
+  return energy;
+}
+
+// Elastic sample forces -dE/dp into force_* (samples must be current).
+static void elastic_sample_forces(vsc_rod* rod) {
+  int N = rod->sample_count;
+  // stretch springs and the global term: dE_g/dl = K_g (l - length) is a
+  // tension shared by every stretch spring
+  double length = spring_edges(rod, 1);
+  double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
+  spring_tensions(rod, N - 1, rod->stretch_spring, rod->rest_spacing, global_tension);
+  add_spring_forces(rod, 1, 1);  // clears the forces first
+  if (rod->bend_spring > 0.0 && N > 2) {
+    spring_edges(rod, 2);
+    spring_tensions(rod, N - 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
+    add_spring_forces(rod, 2, 0);
+  }
+  curvature_bending(rod, 1);
+}
+
+// Virtual work as a gather: Q_k += sum over samples a of b_k(s_a) F_a, each
+// control point reading its own contiguous range of samples.
+static void gather_to_control(const vsc_rod* rod, double* Q) {
+  const double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  for (int k = 0; k < rod->n; ++k) {
+    int a0 = rod->gather_first[k], count = rod->gather_count[k];
+    const double* w = rod->gather_weight + rod->gather_offset[k];
+    double sx = 0.0, sy = 0.0, sz = 0.0;
+    for (int i = 0; i < count; ++i) {
+      sx += w[i] * fx[a0 + i];
+      sy += w[i] * fy[a0 + i];
+      sz += w[i] * fz[a0 + i];
+    }
+    Q[3 * k] += sx;
+    Q[3 * k + 1] += sy;
+    Q[3 * k + 2] += sz;
+  }
+}
+
+double vsc_rod_length(vsc_rod* rod, const double* q) {
+  vsc_rod_update_samples(rod, q);
+  return spring_edges(rod, 1);
+}
+
+// Mesentery tether i: from the axis at abscissa (i + 1/2) / count to the
+// same fraction of the root line; it pulls only when longer than its slack
+// length: E_i = 1/2 k max(0, d - L)^2. Adds -dE/dq to Q if Q is not NULL;
+// returns the tethers' energy (J).
+static double mesentery(const vsc_rod* rod, const double* q, double* Q) {
+  const vsc_rod_def* d = &rod->def;
+  if (d->mesentery_points <= 0 || d->mesentery_stiffness <= 0.0) return 0.0;
+  double energy = 0.0;
+  for (int i = 0; i < d->mesentery_points; ++i) {
+    double f = ((double)i + 0.5) / (double)d->mesentery_points, p[3], e[3];
+    vsc_basis_point(&rod->tether_basis[i], q, p);
+    for (int c = 0; c < 3; ++c) e[c] = d->mesentery_root[c] + f * (d->mesentery_root[3 + c] - d->mesentery_root[c]) - p[c];
+    double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), stretch = length - d->mesentery_length;
+    if (!(stretch > 0.0)) continue;  // slack: no force
+    energy += 0.5 * d->mesentery_stiffness * stretch * stretch;
+    if (!Q) continue;
+    double scale = d->mesentery_stiffness * stretch / length, force[3] = {scale * e[0], scale * e[1], scale * e[2]};
+    const vsc_basis* b = &rod->tether_basis[i];
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
+      for (int c = 0; c < 3; ++c) Q[3 * (b->first + j) + c] += b->weight[j] * force[c];
+  }
+  return energy;
+}
+
+void vsc_rod_add_elastic_forces(vsc_rod* rod, const double* q, double* Q) {
+  elastic_sample_forces(rod);
+  gather_to_control(rod, Q);
+  mesentery(rod, q, Q);
+}
+
+double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
+  vsc_rod_update_samples(rod, q);
+  int N = rod->sample_count;
+  double e = 0.0, dl = spring_edges(rod, 1) - rod->def.length;
+  for (int a = 0; a + 1 < N; ++a) {
+    double d = rod->edge_length[a] - rod->rest_spacing;
+    e += 0.5 * rod->stretch_spring * d * d;
+  }
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, 0);
+  if (N > 2) {
+    spring_edges(rod, 2);
+    for (int a = 0; a + 2 < N; ++a) {
+      double d = rod->edge_length[a] - 2.0 * rod->rest_spacing;
+      e += 0.5 * rod->bend_spring * d * d;
+    }
+  }
+  return e;
+}
+

@@ -1,0 +1,13 @@
+// The rod's elastic forces (viscera/vsc_elastic.h has the energy).
+#ifndef VISCERA_SRC_VSC_ELASTIC_H
+#define VISCERA_SRC_VSC_ELASTIC_H
+
+#include "viscera/vsc_elastic.h"
+#include "vsc_rod.h"
+
+/// Add the elastic forces -dE/dq at control points q (m) to Q (N, 3n):
+/// springs, curvature and clamps from the placed samples (vsc_place.h, which
+/// must be current for q), then the mesentery's tethers.
+void vsc_rod_add_elastic_forces(vsc_rod* rod, const double* q, double* Q);
+
+#endif  // VISCERA_SRC_VSC_ELASTIC_H

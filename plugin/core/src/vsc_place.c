@@ -1,0 +1,23 @@
+// Placement: the sample points and collision spheres from the control points,
+// the first stage of every evaluation (see viscera/vsc_place.h).
+#include "vsc_place.h"
+
+void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
+  double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  for (int a = 0; a < rod->sample_count; ++a) {
+    const vsc_basis* b = &rod->sample_basis[a];
+    const double* p = q + 3 * b->first;
+    double w0 = b->weight[0], w1 = b->weight[1], w2 = b->weight[2], w3 = b->weight[3];
+    x[a] = w0 * p[0] + w1 * p[3] + w2 * p[6] + w3 * p[9];
+    y[a] = w0 * p[1] + w1 * p[4] + w2 * p[7] + w3 * p[10];
+    z[a] = w0 * p[2] + w1 * p[5] + w2 * p[8] + w3 * p[11];
+  }
+}
+
+void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
+  int spheres = rod->def.collision_sphere_count;
+  for (int i = 0; i < spheres; ++i) {
+    vsc_basis_point(&rod->sphere_basis[i], q, rod->sphere_xyz + 3 * i);
+    if (v) vsc_basis_point(&rod->sphere_basis[i], v, rod->sphere_velocity + 3 * i);
+  }
+}

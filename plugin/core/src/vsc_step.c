@@ -1,0 +1,138 @@
+// One step of the rod, top to bottom: the step context, the start state kept
+// for retries, the divergence guard's budget; then each attempt's substeps
+// (place, forces and the scheme in the integrator's substep, then friction);
+// then the guard; retries with twice the substeps; and, if none held, the
+// start restored (see viscera/vsc_integrate.h).
+#include "vsc_step.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "viscera/vsc_contact.h"
+#include "viscera/vsc_grasp.h"
+#include "vsc_energy.h"
+#include "vsc_friction.h"
+#include "vsc_schemes.h"
+
+vsc_step_options vsc_default_step_options(void) {
+  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0};
+  return options;
+}
+
+static int state_is_sane(const double* q, const double* v, int size) {
+  for (int i = 0; i < size; ++i)
+    if (!isfinite(q[i]) || !(fabs(v[i]) < VSC_DIVERGED_SPEED)) return 0;
+  return 1;
+}
+
+static void clear_reactions(const vsc_world* world) {
+  if (world->geom_wrench) memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
+  for (int g = 0; g < world->grasp_count; ++g)
+    world->grasps[g].reaction[0] = world->grasps[g].reaction[1] = world->grasps[g].reaction[2] = 0.0;
+}
+
+// The divergence guard: a step diverged if the rod's mechanical energy grew
+// past its budget (vsc_step_options), counting the contact penalty's
+// potential only when the balance without it fails.
+typedef struct guard {
+  double start_energy;   // kinetic + elastic + gravity at the step start (J)
+  double start_active;   // kinetic + elastic at the step start (J)
+  double slack;          // 1/2 mass energy_jump_speed^2 (J)
+  double allowed;        // the growth allowed without the contact potential (J)
+  double start_contact;  // contact potential at the step start (J; -1: not evaluated yet)
+  int contacts;          // 1 if the rod can touch anything
+} guard;
+
+static double mechanical_energy(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                                double* kinetic_elastic) {
+  *kinetic_elastic = vsc_rod_active_energy(rod, q, v);
+  return *kinetic_elastic + vsc_rod_gravity_energy(rod, world->gravity, q);
+}
+
+static guard guard_begin(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+                         const vsc_step_options* o) {
+  guard g;
+  g.start_energy = mechanical_energy(rod, world, q, v, &g.start_active);
+  g.slack = 0.5 * rod->def.mass * o->energy_jump_speed * o->energy_jump_speed;
+  g.allowed = o->energy_jump_ratio * g.start_active + g.slack;
+  g.contacts = world->geom_count > 0 || rod->def.self_collision;
+  g.start_contact = -1.0;
+  return g;
+}
+
+// 1 if the step from start_q to (q, v) kept within the budget.
+static int guard_holds(guard* g, vsc_rod* rod, const vsc_world* world, const double* start_q, const double* q,
+                       const double* v, const vsc_step_options* o) {
+  double active, energy = mechanical_energy(rod, world, q, v, &active);
+  if (isfinite(energy) && energy - g->start_energy <= g->allowed) return 1;
+  if (!g->contacts || !isfinite(energy)) return 0;
+  // A rod pushed out of a geom turns the penalty's potential into kinetic
+  // energy legitimately. Evaluated lazily, as it costs a narrow phase; start
+  // first, end last: the rod's spheres and contact lists are left at the accepted q.
+  if (g->start_contact < 0.0) g->start_contact = vsc_rod_contact_energy(rod, world, start_q, NULL);
+  double end_contact = vsc_rod_contact_energy(rod, world, q, NULL);
+  double jump = energy + end_contact - (g->start_energy + g->start_contact);
+  // the allowance grows with the stored contact energy: an embedded rod may release it,
+  // but no more than that (a blow-up from deep contact still trips the guard)
+  return jump <= o->energy_jump_ratio * (g->start_active + g->start_contact) + g->slack;
+}
+
+// One attempt at the whole step with `substeps` substeps: 0 if a substep diverged.
+static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* q, double* v, int substeps) {
+  vsc_rod* rod = context->rod;
+  int size = 3 * rod->n;
+  double h = context->dt / (double)substeps;
+  clear_reactions(context->world);
+  for (int s = 0; s < substeps; ++s) {
+    context->unseen = NULL;
+    if (scheme->substep(context, q, v, h) != VSC_OK || !state_is_sane(q, v, size)) return 0;
+    // friction, from the last evaluation's contacts
+    if (context->stick) vsc_rod_update_stick(rod, context->stick, h, context->unseen);
+  }
+  return 1;
+}
+
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
+                        const vsc_step_options* options, vsc_step_report* report) {
+  vsc_step_options o = options ? *options : vsc_default_step_options();
+  if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
+      !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
+    return VSC_ERROR_INVALID_ARGUMENT;
+  vsc_step_context context = {rod, world, stick, dt, 0.0, NULL};
+  const vsc_scheme* scheme = &vsc_schemes[o.integrator];
+  int size = 3 * rod->n, spheres = rod->def.collision_sphere_count;
+  for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said
+    double* pinned_velocity = v + 3 * rod->pinned[i];
+    pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
+  }
+  // the start, kept for retries
+  double* start_q = rod->backup;
+  double* start_v = start_q + size;
+  double* start_stick = start_v + size;
+  memcpy(start_q, q, sizeof(double) * size);
+  memcpy(start_v, v, sizeof(double) * size);
+  if (stick) memcpy(start_stick, stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
+  guard g = guard_begin(rod, world, q, v, &o);
+  int substeps = o.substeps;
+  for (int retry = 0; retry <= o.retries; ++retry) {
+    if (retry > 0) {  // from the step start again, with twice the substeps
+      memcpy(q, start_q, sizeof(double) * size);
+      memcpy(v, start_v, sizeof(double) * size);
+      if (stick) memcpy(stick, start_stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
+      if (2 * substeps > VSC_MAX_RETRY_SUBSTEPS) break;
+      substeps *= 2;
+    }
+    if (report) {
+      report->retries = retry;
+      report->substeps = substeps;
+    }
+    if (attempt(&context, scheme, q, v, substeps) && guard_holds(&g, rod, world, start_q, q, v, &o)) return VSC_OK;
+  }
+  // none held: back to the start, at rest
+  memcpy(q, start_q, sizeof(double) * size);
+  memset(v, 0, sizeof(double) * size);
+  if (!state_is_sane(q, v, size)) memset(q, 0, sizeof(double) * size);
+  if (stick) vsc_stick_clear(stick, spheres);
+  clear_reactions(world);
+  return VSC_ERROR_DIVERGED;
+}
