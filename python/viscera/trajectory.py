@@ -29,6 +29,8 @@ import numpy as np
 
 COORDINATES = ("pitch", "yaw", "depth", "roll", "jaw")
 UNITS = {"pitch": "deg", "yaw": "deg", "depth": "m", "roll": "deg", "jaw": "deg"}
+# each coordinate's unit to SI (deg -> rad; m stays m), in COORDINATES' order
+TO_SI = tuple(np.pi / 180.0 if UNITS[c] == "deg" else 1.0 for c in COORDINATES)
 DEFAULT_MAX_VELOCITY = {"pitch": 30.0, "yaw": 30.0, "depth": 0.05, "roll": 90.0, "jaw": 60.0}  # per second
 PEAK_SPEED = 1.875  # of the quintic smoothstep, times change / duration
 

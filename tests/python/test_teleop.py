@@ -15,6 +15,7 @@ import types
 import numpy as np
 import pytest
 
+import viscera.teleop
 from viscera.teleop import devices
 from viscera.teleop.devices import MAX_VELOCITY, ToolInfo
 from viscera.teleop.session import Session
@@ -112,7 +113,7 @@ def test_spacemouse_maps_the_cap_and_buttons():
 def test_a_missing_device_library_names_the_extra(monkeypatch, name, module, extra):
     monkeypatch.setitem(sys.modules, module, None)  # import fails as if not installed
     with pytest.raises(devices.DeviceError) as error:
-        devices.make(name)
+        viscera.teleop.make(name)
     assert f"viscera[{extra}]" in str(error.value) and "\n" not in str(error.value)
 
 

@@ -27,7 +27,7 @@ batch is bit-identical to the lost one (tested by killing an actor).
 
 from __future__ import annotations
 
-from viscera.scale import Collector
+from viscera.scale.collectors import Collector
 from viscera.checks import checked_integer
 from viscera.scale.worker import RolloutWorker
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from viscera import assess
 from viscera.cli import UserError
-from viscera.teleop import devices
+from viscera.teleop import devices, make as make_device
 from viscera.teleop.session import FRAME_S, Session
 
 OVERLAY_FONT = mujoco.mjtFontScale.mjFONTSCALE_150
@@ -116,7 +116,7 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
     # Mesa's software GL (no GPU) would draw on every core; on one, the simulation keeps the other
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        hardware = devices.make(device, port)
+        hardware = make_device(device, port)
     except devices.DeviceError as error:
         raise UserError(str(error), status=2) from None
     session = None

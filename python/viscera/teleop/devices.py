@@ -25,7 +25,7 @@ import threading
 
 import numpy as np
 
-from viscera.trajectory import COORDINATES, DEFAULT_MAX_VELOCITY
+from viscera.trajectory import COORDINATES, DEFAULT_MAX_VELOCITY, TO_SI
 
 MAX_VELOCITY = np.array([DEFAULT_MAX_VELOCITY[c] for c in COORDINATES])  # deg/s, m/s: the tools' limits
 
@@ -324,7 +324,6 @@ class PolicyDevice(Device):
         self.session, self.policy = session, policy
 
     def targets(self, now_s: float) -> dict[str, np.ndarray]:
-        from viscera.teleop.session import TO_SI
         action = self.policy(self.session.time_step)
         out = {}
         for tool in self.tools:
@@ -334,17 +333,3 @@ class PolicyDevice(Device):
 
 
 DEVICES = ("keyboard", "gamepad", "spacemouse", "socket")
-
-
-def make(name: str, port: int | None = None) -> Device:
-    """The device called `name` (one of DEVICES); DeviceError when it cannot start."""
-    if name == "keyboard":
-        return KeyboardDevice()
-    if name == "gamepad":
-        return GamepadDevice()
-    if name == "spacemouse":
-        return SpaceMouseDevice()
-    if name == "socket":
-        from viscera.teleop.socket_device import SocketDevice
-        return SocketDevice() if port is None else SocketDevice(port=port)
-    raise DeviceError(f"--device {name!r}: not a device; one of {', '.join(DEVICES)}")

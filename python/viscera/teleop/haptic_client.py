@@ -41,7 +41,6 @@ from __future__ import annotations
 import argparse
 import ctypes
 import json
-import math
 import os
 import platform
 import select
@@ -55,8 +54,8 @@ import numpy as np
 
 from viscera import cli
 from viscera.teleop import protocol
+from viscera.trajectory import TO_SI
 
-TO_SI = (math.pi / 180.0, math.pi / 180.0, 1.0, math.pi / 180.0, math.pi / 180.0)  # deg -> rad; m stays m
 SPIN_S = 2e-4           # the last part of a period is spun: a sleep's wake-up can be late
 REPLY_SPIN_S = 2e-4     # the answer is polled for this long before blocking: no wake-up to wait for
                         # (spins cost the simulation a core's time: measured, 0.4 + 0.3 ms put 8 %

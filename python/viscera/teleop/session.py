@@ -24,18 +24,17 @@ import dataclasses
 import time
 from collections.abc import Callable
 
-import mujoco
 import numpy as np
 
 import viscera.tasks
 from viscera import assess
 from viscera.tasks.policies import Tools
 from viscera.teleop.devices import MAX_VELOCITY, Device, Snapshot, ToolInfo
-from viscera.trajectory import COORDINATES
+from viscera.trajectory import TO_SI as _TO_SI
 
 CONTROL_TIMESTEP_S = 0.01   # a device's commands reach the tools at 100 Hz (the physics runs at 500 Hz)
 FRAME_S = 1.0 / 30.0        # the viewer is redrawn at 30 frames per wall second
-TO_SI = np.array([np.pi / 180.0, np.pi / 180.0, 1.0, np.pi / 180.0, np.pi / 180.0])  # user units -> rad, m
+TO_SI = np.array(_TO_SI)    # user units (viscera.trajectory.UNITS) -> rad, m
 
 
 @dataclasses.dataclass

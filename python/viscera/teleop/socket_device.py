@@ -68,9 +68,8 @@ import numpy as np
 from viscera.teleop import protocol
 from viscera.teleop.devices import Device, DeviceError, Snapshot, ToolInfo
 from viscera.teleop.haptic_client import realtime_thread
-from viscera.trajectory import COORDINATES, UNITS
+from viscera.trajectory import COORDINATES, TO_SI, UNITS
 
-TO_SI = (math.pi / 180.0, math.pi / 180.0, 1.0, math.pi / 180.0, math.pi / 180.0)  # user units -> rad, m
 CONTROL_PERIOD_S = 0.01   # T until the session's snapshots show theirs
 SILENCE_S = 0.5           # s without a POSE: the client has vanished, the tools hold
 FLOOD_PER_MS = 8          # POSEs accepted per millisecond; beyond, a flood
