@@ -32,6 +32,14 @@ _Static_assert(sizeof(vsc_integrator) == sizeof(int) && sizeof(vsc_shape_kind) =
 
 // Each enumerated key's names, indexed by its enum (designated initializers: a
 // name cannot drift from its value), NULL-terminated.
+double vsc_plugin_default_stretch_stiffness(const vsc_rod_def* core, double length) {
+  return core->stretch_stiffness * core->length / length;
+}
+
+double vsc_plugin_default_bend_stiffness(const vsc_rod_def* core, double length) {
+  return core->bend_stiffness * core->length / length;
+}
+
 static const char* const shape_names[] = {[VSC_SHAPE_LINE] = "line", [VSC_SHAPE_POLYLINE] = "polyline",
                                           [VSC_SHAPE_SERPENTINE] = "serpentine",
                                           [VSC_SHAPE_CONTROL_POINTS] = "control_points", NULL};
@@ -329,8 +337,8 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   // scaling it up for short intestines would only make them unstable
   int young = given[VSC_KEY_young_modulus];
   if (!given[VSC_KEY_stretch_stiffness])
-    d->stretch_stiffness = young ? stretch : core->stretch_stiffness * core->length / d->length;
-  if (!given[VSC_KEY_bend_stiffness]) d->bend_stiffness = young ? 0.0 : core->bend_stiffness * core->length / d->length;
+    d->stretch_stiffness = young ? stretch : vsc_plugin_default_stretch_stiffness(core, d->length);
+  if (!given[VSC_KEY_bend_stiffness]) d->bend_stiffness = young ? 0.0 : vsc_plugin_default_bend_stiffness(core, d->length);
   if (!given[VSC_KEY_global_stretch_stiffness] && young) d->global_stretch_stiffness = 0.0;
   if (!given[VSC_KEY_bending_rigidity]) d->bending_rigidity = rigidity;
   if (d->stretch_stiffness == 0.0 && d->bend_stiffness == 0.0 && d->global_stretch_stiffness == 0.0)

@@ -52,6 +52,12 @@ extern const vsc_plugin_key vsc_plugin_keys[];
 /// unknown key index or field.
 int vsc_plugin_key_field(int i, const char* field, char* out, int size);
 
+/// The default stretch and bend stiffnesses (N/m) at rest length `length` (m):
+/// the core's defaults (`core`, at its own length) as one material at any
+/// length, k core_length / length.
+double vsc_plugin_default_stretch_stiffness(const vsc_rod_def* core, double length);
+double vsc_plugin_default_bend_stiffness(const vsc_rod_def* core, double length);
+
 /// Initial shape of the axis.
 typedef enum vsc_shape_kind {
   VSC_SHAPE_LINE,

@@ -1,10 +1,8 @@
 // A few core functions exported for the Python package (ctypes), so Python
 // evaluates the axis with the very basis the plugin uses and reads the config
 // attribute list from its single definition.
-#define _POSIX_C_SOURCE 199309L  // clock_gettime
 #include <math.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "config.h"
 #include "intestine.h"
@@ -79,12 +77,36 @@ VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out
   return 0;
 }
 
+/// The stretch and bend stiffnesses (N/m) an intestine of rest length `length`
+/// (m) takes by default, as config.c derives them from the core's defaults (one
+/// material at any length): out = {stretch_stiffness, bend_stiffness}. Returns 0,
+/// or -1 for a length that is not positive and finite.
+VSC_EXPORT int viscera_default_stiffnesses(double length, double out[2]) {
+  if (!(length > 0.0) || !isfinite(length)) return -1;
+  vsc_rod_def core = vsc_default_rod_def();
+  out[0] = vsc_plugin_default_stretch_stiffness(&core, length);
+  out[1] = vsc_plugin_default_bend_stiffness(&core, length);
+  return 0;
+}
+
 /// Number of blocks in an intestine's plugin_state (state_layout.h).
 VSC_EXPORT int viscera_state_block_count(void) { return VSC_STATE_BLOCK_COUNT; }
 
 /// Name of state block i (static storage), NULL if out of range.
 VSC_EXPORT const char* viscera_state_block_name(int i) {
   return i >= 0 && i < VSC_STATE_BLOCK_COUNT ? vsc_state_block_names[i] : 0;
+}
+
+/// Numbers per item of state block i (per control point, body, sphere or
+/// grasper), or -1 if out of range.
+VSC_EXPORT int viscera_state_block_width(int i) {
+  return i >= 0 && i < VSC_STATE_BLOCK_COUNT ? vsc_state_block_width[i] : -1;
+}
+
+/// Name of grasper status i (the grasps block's first number per grasper;
+/// static storage), NULL if out of range.
+VSC_EXPORT const char* viscera_grasp_status_name(int i) {
+  return i >= 0 && i <= VSC_GRASP_CLOSED_EMPTY ? vsc_grasp_status_names[i] : 0;
 }
 
 /// The plugin_state layout of intestine `instance`: offset[i] and size[i]
@@ -102,48 +124,6 @@ VSC_EXPORT int viscera_intestine_layout(const mjModel* m, int instance, int* off
     size[b] = l.size[b];
   }
   return l.total;
-}
-
-typedef struct pass_count {
-  const double* xyz;
-  double reach2;  // (2 r)^2
-  int contacts;
-} pass_count;
-
-static void count_contact(void* context, int a, int b) {
-  pass_count* p = (pass_count*)context;
-  const double* x = p->xyz + 3 * a;
-  const double* y = p->xyz + 3 * b;
-  double d2 = (x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) + (x[2] - y[2]) * (x[2] - y[2]);
-  p->contacts += d2 < p->reach2;
-}
-
-/// Benchmark of the paper's collision pass (section 3.3.1): fill the grid with
-/// `count` spheres of radius `radius` (m) at `xyz`, checking each against the
-/// spheres already in its cells. Returns the fastest of `repeats` passes (s),
-/// or -1; *contacts receives the number of overlapping pairs.
-VSC_EXPORT double viscera_collision_pass_seconds(const double* xyz, int count, double radius, int repeats, int* contacts) {
-  vsc_grid* grid = NULL;
-  if (count < 1 || repeats < 1 || !(radius > 0.0) || vsc_grid_create(count, &grid) != VSC_OK) return -1.0;
-  double best = INFINITY;
-  pass_count p = {xyz, 4.0 * radius * radius, 0};
-  for (int r = 0; r < repeats; ++r) {
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
-    p.contacts = 0;
-    vsc_grid_begin(grid, 2.0 * radius * (1.0 + 1e-6));
-    for (int i = 0; i < count; ++i) {
-      const double* x = xyz + 3 * i;
-      double lo[3] = {x[0] - radius, x[1] - radius, x[2] - radius}, hi[3] = {x[0] + radius, x[1] + radius, x[2] + radius};
-      vsc_grid_insert(grid, i, lo, hi, count_contact, &p);
-    }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    best = seconds < best ? seconds : best;
-  }
-  *contacts = p.contacts;
-  vsc_grid_destroy(grid);
-  return best;
 }
 
 /// The skin of intestine `instance` (paper 3.2) from `state`, the instance's

@@ -12,10 +12,9 @@
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_rod.h"
 
-// Per grasper state (VSC_GRASP_STATE_SIZE numbers): status, held abscissa s,
-// the held point in the site's frame (m, 3) so that taking hold moves nothing,
-// slip count.
-enum { VSC_GRASP_OPEN = 0, VSC_GRASP_HOLDING = 1, VSC_GRASP_CLOSED_EMPTY = 2 };
+// Per grasper state (VSC_GRASP_STATE_SIZE numbers): status (VSC_GRASP_OPEN ...,
+// state_layout.h), held abscissa s, the held point in the site's frame (m, 3)
+// so that taking hold moves nothing, slip count.
 
 /// This step's holds: the core's grasps and, for each, its grasper.
 typedef struct vsc_mujoco_holds {

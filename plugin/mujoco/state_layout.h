@@ -15,7 +15,7 @@
 //   wrenches      6B   per body, the reaction of the intestine over the last
 //                      step: force (N), torque about the body's centre of mass
 //                      (N m), world frame
-//   friction      8S   per sphere, friction state (VSC_STICK_SIZE, vsc_contact.h)
+//   friction      8S   per sphere, friction state (VSC_STICK_SIZE, vsc_friction.h)
 //   grasps        6G   per grasper (grasp_sites), its hold: status (0 open,
 //                      1 holding, 2 closed without a hold: missed or slipped),
 //                      held abscissa s in [0, 1], held point in the site frame
@@ -23,7 +23,7 @@
 #ifndef VISCERA_PLUGIN_STATE_LAYOUT_H
 #define VISCERA_PLUGIN_STATE_LAYOUT_H
 
-#include "viscera/vsc_contact.h"
+#include "viscera/vsc_friction.h"
 
 /// Numbers per grasper in the grasps block.
 #define VSC_GRASP_STATE_SIZE 6
@@ -47,6 +47,17 @@ typedef struct vsc_state_layout {
   int total;
 } vsc_state_layout;
 
+/// Numbers per item of each block: per control point, per body, per sphere, per grasper.
+static const int vsc_state_block_width[VSC_STATE_BLOCK_COUNT] = {
+    [VSC_STATE_POSITIONS] = 3, [VSC_STATE_VELOCITIES] = 3, [VSC_STATE_DIVERGENCES] = 1,
+    [VSC_STATE_RECOVERIES] = 1, [VSC_STATE_WRENCHES] = 6, [VSC_STATE_FRICTION] = VSC_STICK_SIZE,
+    [VSC_STATE_GRASPS] = VSC_GRASP_STATE_SIZE};
+
+/// A grasper's status in its first number, by name (static storage, NULL-terminated).
+enum { VSC_GRASP_OPEN = 0, VSC_GRASP_HOLDING = 1, VSC_GRASP_CLOSED_EMPTY = 2 };
+static const char* const vsc_grasp_status_names[] = {
+    [VSC_GRASP_OPEN] = "open", [VSC_GRASP_HOLDING] = "holding", [VSC_GRASP_CLOSED_EMPTY] = "closed", NULL};
+
 /// Block names, as Python reads them (static storage).
 static const char* const vsc_state_block_names[VSC_STATE_BLOCK_COUNT] = {
     [VSC_STATE_POSITIONS] = "positions",   [VSC_STATE_VELOCITIES] = "velocities",
@@ -58,13 +69,12 @@ static const char* const vsc_state_block_names[VSC_STATE_BLOCK_COUNT] = {
 /// bodies and `graspers` graspers: the blocks back to back.
 static inline vsc_state_layout vsc_state_layout_of(int n, int spheres, int bodies, int graspers) {
   vsc_state_layout l;
-  const int size[VSC_STATE_BLOCK_COUNT] = {3 * n, 3 * n, 1, 1, 6 * bodies, VSC_STICK_SIZE * spheres,
-                                           VSC_GRASP_STATE_SIZE * graspers};
+  const int items[VSC_STATE_BLOCK_COUNT] = {n, n, 1, 1, bodies, spheres, graspers};
   int at = 0;
   for (int b = 0; b < VSC_STATE_BLOCK_COUNT; ++b) {
     l.offset[b] = at;
-    l.size[b] = size[b];
-    at += size[b];
+    l.size[b] = vsc_state_block_width[b] * items[b];
+    at += l.size[b];
   }
   l.total = at;
   return l;

@@ -21,7 +21,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import pathlib
 import statistics
+import subprocess
+import tempfile
 import time
 
 import mujoco
@@ -97,17 +100,33 @@ def piled_chain(count: int, radius: float = RADIUS, seed: int = 0) -> np.ndarray
     return np.ascontiguousarray(folded)
 
 
-def collision_pass_scaling(sizes=SCALING_SIZES, repeats: int = 20) -> dict:
-    """Fastest collision pass time for each sphere count, and the log-log slope."""
-    import ctypes
-    lib = viscera._library.native()
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def collision_pass_program(build: pathlib.Path | None = None) -> pathlib.Path:
+    """The C benchmark of the collision pass (tests/c/bench_collision_pass.c), built from this
+    checkout's core (no MuJoCo) into `build` (default build/bench-c) with cmake."""
+    build = build or ROOT / "build" / "bench-c"
+    for command in (["cmake", "-S", str(ROOT), "-B", str(build), "-DVISCERA_BUILD_PLUGIN=OFF",
+                     "-DCMAKE_BUILD_TYPE=Release"],
+                    ["cmake", "--build", str(build), "--target", "bench_collision_pass", "--parallel", "2"]):
+        result = subprocess.run(command, capture_output=True, text=True)
+        if result.returncode:
+            raise RuntimeError(f"{' '.join(command)} failed:\n{result.stdout[-2000:]}{result.stderr[-2000:]}")
+    return build / "bench_collision_pass"
+
+
+def collision_pass_scaling(sizes=SCALING_SIZES, repeats: int = 20, build: pathlib.Path | None = None) -> dict:
+    """Fastest collision pass time for each sphere count (timed in C), and the log-log slope."""
+    program = collision_pass_program(build)
     rows = []
-    for count in sizes:
-        xyz = piled_chain(count)
-        contacts = ctypes.c_int(0)
-        seconds = lib.viscera_collision_pass_seconds(xyz.ctypes.data_as(ctypes.c_void_p), count, RADIUS, repeats,
-                                                     ctypes.byref(contacts))
-        rows.append({"spheres": count, "seconds": seconds, "contacts": contacts.value})
+    with tempfile.TemporaryDirectory() as folder:
+        for count in sizes:
+            path = pathlib.Path(folder) / f"pile_{count}.bin"
+            piled_chain(count).astype("<f8").tofile(path)
+            output = subprocess.run([str(program), str(path), repr(RADIUS), str(repeats)], capture_output=True,
+                                    text=True, check=True).stdout.split()
+            rows.append({"spheres": count, "seconds": float(output[0]), "contacts": int(output[1])})
     n = np.array([r["spheres"] for r in rows], dtype=float)
     t = np.array([r["seconds"] for r in rows])
     slope = float(np.polyfit(np.log(n), np.log(t), 1)[0])

@@ -47,14 +47,13 @@ def load() -> pathlib.Path:
                 ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
             _ctypes_library.viscera_intestine_info.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_info.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
-            _ctypes_library.viscera_collision_pass_seconds.restype = ctypes.c_double
-            _ctypes_library.viscera_collision_pass_seconds.argtypes = [
-                ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_int)]
             _ctypes_library.viscera_skin.restype = ctypes.c_int
             _ctypes_library.viscera_skin.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
                                                      ctypes.c_int,
                                                      ctypes.c_void_p, ctypes.c_int, ctypes.c_int] + [
                 ctypes.c_void_p] * 3 + [ctypes.POINTER(ctypes.c_int)] * 2
+            _ctypes_library.viscera_intestine_stability.restype = ctypes.c_int
+            _ctypes_library.viscera_intestine_stability.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
             _ctypes_library.viscera_intestine_energy.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_energy.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
             _ctypes_library.viscera_attribute_field.restype = ctypes.c_int
@@ -66,6 +65,12 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_state_block_count.argtypes = []
             _ctypes_library.viscera_state_block_name.restype = ctypes.c_char_p
             _ctypes_library.viscera_state_block_name.argtypes = [ctypes.c_int]
+            _ctypes_library.viscera_default_stiffnesses.restype = ctypes.c_int
+            _ctypes_library.viscera_default_stiffnesses.argtypes = [ctypes.c_double, ctypes.c_void_p]
+            _ctypes_library.viscera_state_block_width.restype = ctypes.c_int
+            _ctypes_library.viscera_state_block_width.argtypes = [ctypes.c_int]
+            _ctypes_library.viscera_grasp_status_name.restype = ctypes.c_char_p
+            _ctypes_library.viscera_grasp_status_name.argtypes = [ctypes.c_int]
             _ctypes_library.viscera_intestine_layout.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_layout.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
                                                                  ctypes.c_void_p]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 import difflib
+import functools
 import re
 from typing import Any, Mapping
 
@@ -79,6 +80,15 @@ def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarr
     return np.einsum("kj,kjc->kc", weight, window)
 
 
+def default_stiffnesses(length: float) -> tuple[float, float]:
+    """The stretch and bend stiffnesses (N/m) an intestine of rest length `length` (m) takes
+    when its config gives neither: one material at any length (keys.h; from the plugin)."""
+    out = np.zeros(2)
+    if _library.native().viscera_default_stiffnesses(float(length), out.ctypes.data_as(ctypes.c_void_p)):
+        raise ValueError(f"length = {length!r}: must be a positive finite number of metres")
+    return float(out[0]), float(out[1])
+
+
 def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
     """Length, radius, mass, control points, spheres, samples per segment, as the plugin reads them."""
     out = np.zeros(6)
@@ -102,7 +112,23 @@ def _layout(model: mujoco.MjModel, instance: int) -> dict[str, slice]:
             for b in range(count)}
 
 
-GRASP_STATUS = {0: "open", 1: "holding", 2: "closed"}
+@functools.cache
+def _block_widths() -> dict[str, int]:
+    """Numbers per item (control point, body, sphere, grasper) of each plugin_state block (from C)."""
+    library = _library.native()
+    return {library.viscera_state_block_name(b).decode(): library.viscera_state_block_width(b)
+            for b in range(library.viscera_state_block_count())}
+
+
+@functools.cache
+def _grasp_status_names() -> dict[int, str]:
+    """A grasper's status number to its name: open, holding, closed (from C)."""
+    library = _library.native()
+    names, i = {}, 0
+    while (name := library.viscera_grasp_status_name(i)) is not None:
+        names[i] = name.decode()
+        i += 1
+    return names
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,7 +179,8 @@ class Intestine:
         body_id = body if isinstance(body, (int, np.integer)) else self.model.body(body).id
         if not 0 <= body_id < self.model.nbody:
             raise IndexError(f"body {body!r} is not a body of the model (0 to {self.model.nbody - 1})")
-        return self._state(data)[self.layout["wrenches"]][6 * int(body_id):6 * int(body_id) + 6].copy()
+        width = _block_widths()["wrenches"]
+        return self._state(data)[self.layout["wrenches"]].reshape(-1, width)[int(body_id)].copy()
 
     @property
     def graspers(self) -> tuple[str, ...]:
@@ -162,11 +189,12 @@ class Intestine:
 
     def grasps(self, data: mujoco.MjData) -> list[Grasp]:
         """The hold of every grasper (in grasp_sites order)."""
-        state = self._state(data)[self.layout["grasps"]].reshape(-1, 6)
+        state = self._state(data)[self.layout["grasps"]].reshape(-1, _block_widths()["grasps"])
+        statuses = _grasp_status_names()
         out = []
         for i, site in enumerate(self.graspers):
-            status, s, _, _, _, slips = state[i]
-            out.append(Grasp(site, GRASP_STATUS.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
+            status, s, slips = state[i][0], state[i][1], state[i][-1]  # status, abscissa, ..., slips
+            out.append(Grasp(site, statuses.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
         return out
 
     def energy(self, data: mujoco.MjData) -> dict[str, float]:
@@ -186,6 +214,18 @@ class Intestine:
         if status != 0:
             raise RuntimeError(f"viscera: cannot evaluate the energy of intestine instance {self.instance}")
         return {"elastic": float(out[0]), "gravity": float(out[1]), "kinetic": float(out[2])}
+
+    def stability(self) -> dict[str, float]:
+        """How finely the plugin integrates this intestine at the model's timestep: the highest
+        angular frequencies of its elastic forces and of its contact springs at the initial shape
+        ('elastic_rad_s', 'contact_rad_s', rad/s) and the substeps it takes per MuJoCo step
+        ('substeps': the config's, else the fewest the estimate allows; docs/integrators.md).
+        Rebuilds the plugin's rod to measure (O(n)): for a scene's setup, not for every step."""
+        out = np.zeros(3)
+        if _library.native().viscera_intestine_stability(ctypes.c_void_p(self.model._address), self.instance,
+                                                         out.ctypes.data_as(ctypes.c_void_p)):
+            raise RuntimeError(f"viscera: cannot estimate the stability of intestine instance {self.instance}")
+        return {"elastic_rad_s": float(out[0]), "contact_rad_s": float(out[1]), "substeps": int(out[2])}
 
     def divergence_count(self, data: mujoco.MjData) -> int:
         """Steps since the last reset that diverged even at the most retried substeps: their

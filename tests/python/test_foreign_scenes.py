@@ -9,7 +9,6 @@ length, and warn once where the scene is unusual, naming what is wrong.
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import os
 
 import mujoco
@@ -17,7 +16,6 @@ import numpy as np
 import pytest
 
 import viscera
-from viscera import _library
 
 mjcf = pytest.importorskip("dm_control.mjcf")
 suite = pytest.importorskip("dm_control.suite")
@@ -64,15 +62,13 @@ def run(model, data, gut, seconds: float, fast_for: float = 0.0):
 def stability(model) -> np.ndarray:
     """The plugin's stability figures for the model's first intestine: highest elastic and
     contact angular frequencies (rad/s) and the substeps per step it takes."""
-    out = np.zeros(3)
-    assert _library.native().viscera_intestine_stability(
-        ctypes.c_void_p(model._address), 0, out.ctypes.data_as(ctypes.c_void_p)) == 0
-    return out
+    figures = viscera.intestine(model).stability()
+    return np.array([figures["elastic_rad_s"], figures["contact_rad_s"], figures["substeps"]])
 
 
 def substeps(model) -> int:
     """The substeps per step the plugin takes for the model's first intestine."""
-    return int(stability(model)[2])
+    return viscera.intestine(model).stability()["substeps"]
 
 
 def diverged(messages):

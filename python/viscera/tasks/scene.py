@@ -25,6 +25,8 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
+from viscera.intestine import default_stiffnesses
+
 HERE = pathlib.Path(__file__).resolve()
 SOURCE_SCENES = HERE.parents[3] / "assets" / "scenes"   # the source tree
 PACKAGED_SCENES = HERE.parents[1] / "assets"            # the installed package's data
@@ -172,9 +174,9 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
         _config(instance, "points", _numbers(episode.control_points))
         _config(instance, "mass", f"{episode.mass:.6g}")
         length = float(next(c.get("value") for c in instance.findall("config") if c.get("key") == "length"))
-        # the defaults are one material at any length: 40 N and 4 N over the length (keys.h)
-        _config(instance, "stretch_stiffness", f"{40.0 / length * episode.stiffness_scale:.6g}")
-        _config(instance, "bend_stiffness", f"{4.0 / length * episode.stiffness_scale:.6g}")
+        stretch, bend = default_stiffnesses(length)  # the plugin's own, at this length
+        _config(instance, "stretch_stiffness", f"{stretch * episode.stiffness_scale:.6g}")
+        _config(instance, "bend_stiffness", f"{bend * episode.stiffness_scale:.6g}")
         _config(instance, "friction", f"{episode.friction:.6g}")
         _config(instance, "self_friction", f"{episode.self_friction:.6g}")
         _config(instance, "mesentery_stiffness", f"{episode.mesentery_stiffness:.6g}")
