@@ -3,8 +3,9 @@
     python docs/tables.py            # rewrite every generated table in docs/*.md and README.md
     python docs/tables.py --check    # exit 1 if a page differs from its JSON (tests/python/test_docs.py)
 
-A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page; NAME
-is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
+A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` in a page, a
+single figure in a sentence between `<!-- value: FILE KEY FORMAT -->` and `<!-- end value -->`
+(see VALUE below); NAME is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
 (python python/tools/bench_cavity.py --json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
@@ -222,8 +223,26 @@ def config_keys() -> str:
     return _rows(["key", "values", "unit", "default", "meaning"], rows)
 
 
+# A single figure inside a sentence: <!-- value: FILE KEY FORMAT -->TEXT<!-- end value -->, FILE
+# a JSON file under docs/, KEY its path (dots; list indices as numbers), FORMAT a Python format
+# spec (".1f", ".0%", "d"), or one after "1/" for the reciprocal (a real-time factor from wall
+# seconds per simulated second); TEXT is rewritten from the JSON.
+VALUE = re.compile(r"(<!-- value: (\S+) (\S+) (\S+) -->)(.*?)(<!-- end value -->)")
+
+
+def value(relative: str, key: str, spec: str):
+    """The figure at `key` (dotted path) of docs/`relative`."""
+    node = _json(relative)
+    for part in key.split("."):
+        node = node[int(part)] if isinstance(node, list) else node[part]
+    if spec.startswith("1/"):
+        return format(1.0 / node, spec[2:])
+    return format(node, spec)
+
+
 def render(text: str) -> str:
-    return MARK.sub(lambda m: m.group(1) + globals()[m.group(2)]() + m.group(4), text)
+    text = MARK.sub(lambda m: m.group(1) + globals()[m.group(2)]() + m.group(4), text)
+    return VALUE.sub(lambda m: m.group(1) + value(m.group(2), m.group(3), m.group(4)) + m.group(6), text)
 
 
 def main(argv: list[str]) -> int:

@@ -3,7 +3,8 @@ before and after the clearing gesture, each as RGB | depth | segmentation side b
 
     python python/tools/pixel_pictures.py [--seed 0] [--size 256] [--out docs/pixels]
 
-The picture after is the episode's last frame: a lasting success ends it (or the time limit).
+The picture after is the episode's last frame: a lasting success ends it (or the time limit);
+the episode's outcome goes to episode.json beside the pictures (the page quotes it).
 Depth is drawn grey, near bright, from the frame's nearest to its farthest point; segmentation
 in the labels' colours: nothing black, intestine pink, tools grey, target green.
 """
@@ -11,6 +12,7 @@ in the labels' colours: nothing black, intestine pink, tools grey, target green.
 from __future__ import annotations
 
 import argparse
+import json
 import pathlib
 
 import viscera.tasks  # first: it picks a headless GL backend
@@ -50,8 +52,11 @@ def main(argv: list[str] | None = None) -> int:
     while not step.last():
         step = env.step(policy(step))
     cli.save_png(str(args.out / "laparoscope_after.png"), strip(step.observation))
-    print(f"clear_area seed {args.seed}: success {env.task.success(env.physics)} at "
-          f"{env.physics.data.time:.1f} s; wrote {args.out}/laparoscope_before.png, laparoscope_after.png")
+    episode = {"task": "clear_area", "seed": args.seed, "success": bool(env.task.success(env.physics)),
+               "simulated_s": round(float(env.physics.data.time), 2)}
+    (args.out / "episode.json").write_text(json.dumps(episode, indent=2) + "\n")
+    print(f"clear_area seed {args.seed}: success {episode['success']} at {episode['simulated_s']:.2f} s; wrote "
+          f"{args.out}/laparoscope_before.png, laparoscope_after.png, episode.json")
     viscera.tasks.close(env)
     return 0
 

@@ -43,3 +43,28 @@ def test_the_pages_tables_match_their_results_json():
     assert tables.main(["--check"]) == 0
     page = (ROOT / "docs" / "validation.md").read_text()
     assert "<!-- table: stability_map -->" in page and "<!-- table: speed_against_accuracy -->" in page
+
+
+def _play(task: str, seed: int) -> dict:
+    import viscera.tasks
+    env = viscera.tasks.load(task, seed=seed)
+    policy = viscera.tasks.scripted_policy(env)
+    step = env.reset()
+    while not step.last():
+        step = env.step(policy(step))
+    return {"seed": seed, "success": bool(env.task.success(env.physics)),
+            "simulated_s": round(float(env.physics.data.time), 2)}
+
+
+def test_the_pages_episode_figures_are_what_the_code_does():
+    """The episodes the pages show and quote (docs/tasks/pictures.json, docs/pixels/episode.json,
+    written by task_pictures.py and pixel_pictures.py) end, played again, as their JSON says: a
+    change of behaviour that leaves the pictures and figures stale fails here."""
+    import json
+    shown = json.loads((ROOT / "docs" / "tasks" / "pictures.json").read_text())
+    for task, recorded in shown.items():
+        assert _play(task, recorded["seed"]) == recorded, task
+    episode = json.loads((ROOT / "docs" / "pixels" / "episode.json").read_text())
+    same = shown.get(episode["task"], {}).get("seed") == episode["seed"]  # then played above
+    played = shown[episode["task"]] if same else _play(episode["task"], episode["seed"])
+    assert {k: episode[k] for k in ("seed", "success", "simulated_s")} == played
