@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import pathlib
 
 import viscera  # noqa: F401  first: headless GL backend
 
@@ -137,8 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     for key, value in results.items():
         print(f"{key:<48} {value}")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=2)
+        pathlib.Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
     return 0
 
 

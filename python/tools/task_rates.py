@@ -2,10 +2,14 @@
 nothing, over seeds, with the wall time per episode; written to docs/tasks/rates.json.
 
     python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
-        [--policies scripted random nothing] [--out docs/tasks/rates.json]
+        [--policies scripted random nothing] [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
 
 The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
-and doing nothing over 20 (two runs, merged: random 90 s episodes are slow).
+and doing nothing over 20 (random 90 s episodes are slow), from two runs:
+
+    python python/tools/task_rates.py --policies scripted --out docs/tasks/rates.json
+    python python/tools/task_rates.py --seeds 20 --policies random nothing --merge docs/tasks/rates.json \
+        --out docs/tasks/rates.json
 
 The seeds start at 1000 by default: the policies were tuned on seeds below 200, so these are seeds
 they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
@@ -79,12 +83,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="tasks to measure (default all)")
     parser.add_argument("--policies", nargs="+", choices=POLICIES, default=list(POLICIES),
                         help="policies to measure (default all)")
+    parser.add_argument("--merge", type=cli.input_file,
+                        help="a rates JSON whose other policies and tasks are kept beside this run's")
     parser.add_argument("--out", type=cli.output_file(".json"), help=f"where to write the rates (e.g. {OUT})")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     result = {"control_timestep_s": 0.02, "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
               "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet)}
+    if args.merge:  # this run's policies over the merged file's
+        merged = json.loads(pathlib.Path(args.merge).read_text())
+        merged["seeds"].update(result["seeds"])
+        for task, table in result["rates"].items():
+            merged["rates"].setdefault(task, {}).update(table)
+        result = merged
     for task, table in result["rates"].items():
         print(task + ": " + ", ".join(f"{policy} {row['success_rate']:.0%} ({row['median_wall_s_per_episode']:.1f} s "
                                       f"wall per episode)" for policy, row in table.items()))

@@ -383,7 +383,8 @@ int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
   if (self_fresh) memset(l->segment_moved, 0, sizeof(double) * (size_t)spheres);
   if (geoms_fresh) {
     memset(l->geom_moved, 0, sizeof(double) * (size_t)spheres);
-    memset(l->geom_pose + 12 * (size_t)l->built_geom_capacity, 0, sizeof(double) * (size_t)world->geom_count);
+    if (world->geom_count > 0)  // (no geoms: no poses allocated)
+      memset(l->geom_pose + 12 * (size_t)l->built_geom_capacity, 0, sizeof(double) * (size_t)world->geom_count);
   }
   return 1;
 }
