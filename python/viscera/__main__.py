@@ -3,7 +3,8 @@
     python -m viscera run SCENE.xml [--duration 5] [--png out.png] [--viewer meshcat]
     python -m viscera view SCENE.xml    # MuJoCo's interactive viewer, the intestine drawn
     python -m viscera teleop TASK [--seed S] [--device keyboard] [--record FILE]   # a person at the tools
-    python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without one
+    python -m viscera play TASK [--seed S] [--policy scripted]     # a whole episode: did it succeed? (exit 0 or 1)
+    python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without a person
     python -m viscera replay FILE [--json OUT] [--viewer meshcat] [--trajectory OUT.json]
 """
 
@@ -226,18 +227,31 @@ def ticks(count: int) -> str:
     return f"{count} tick{'s' * (count != 1)}"
 
 
-def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool) -> dict:
+def play(task: str, seed: int, policy: str, time_limit_s: float | None, quiet: bool,
+         out: str | None = None) -> tuple[bool, dict]:
+    """One whole episode of `task` (to its success, failure or time limit) played by a policy kind
+    (recording.POLICIES), with `out` saved for replay; prints its score and the verdict last.
+    Returns the success and the score."""
     from viscera import recording
     on_step, score = _trace_and_score(task)
     made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step)
-    made.save(out)
+    episode = f"{task}, seed {seed}, {policy} policy, {ticks(made.steps)} of {made.control_timestep_s * 1e3:g} ms"
+    if out:
+        made.save(out)
+        print(f"recording        {out} ({episode})")
+    else:
+        print(f"episode          {episode}")
     result = score()
-    print(f"recording        {out} ({task}, seed {seed}, {policy} policy, {ticks(made.steps)} of "
-          f"{made.control_timestep_s * 1e3:g} ms)")
     print_score(result)
-    print(f"final state      sha256 {made.final_state_sha256}")
+    if out:
+        print(f"final state      sha256 {made.final_state_sha256}")
     print(recording.verdict(task, made.success), flush=True)
-    return result
+    return made.success, result
+
+
+def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool) -> dict:
+    """play, the episode saved to `out`; returns the score."""
+    return play(task, seed, policy, time_limit_s, quiet, out)[1]
 
 
 def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str | None, quiet: bool) -> dict:
@@ -316,7 +330,7 @@ def _shown(on_step, control_timestep_s: float):
 
 
 def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None:
-    """A task's episode: its name, seed and time limit (teleop, record)."""
+    """A task's episode: its name, seed and time limit (teleop, play, record)."""
     from viscera.task_registry import TASKS  # the names, without loading dm_control
     parser.add_argument("task", choices=tuple(TASKS), metavar="TASK", help=f"one of {', '.join(TASKS)}")
     if seed_required:
@@ -326,11 +340,21 @@ def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None
     parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s (default: the task's)")
 
 
+def policy_arguments(parser: argparse.ArgumentParser, required: bool) -> None:
+    """The policy that plays a task's episode, and the output's options (play, record)."""
+    from viscera.recording import POLICIES
+    default = "" if required else ", the default"
+    parser.add_argument("--policy", choices=POLICIES, required=required, default=None if required else "scripted",
+                        help=f"scripted (the task's script{default}), random (uniform actions, numpy's "
+                        "default_rng(seed)) or idle (the tools held withdrawn)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = cli.OneLineParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
                                "Run an MJCF scene with intestines and print a summary, open it in MuJoCo's "
-                               "viewer, drive a task's tools yourself (teleop), record an episode and replay it "
-                               "with its score.")
+                               "viewer, drive a task's tools yourself (teleop), play a task's episode with a "
+                               "policy, record an episode and replay it with its score.")
     from viscera.recording import versions
     parser.add_argument("--version", action="version",
                         version="viscera {viscera}, mujoco {mujoco}".format(**versions()))
@@ -353,18 +377,13 @@ def build_parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--record-fps", type=cli.positive_float_up_to(1e4, "frames per s", minimum=1e-3), default=10.0,
                             help="recorded frames per simulated second (default 10)")
     run_parser.add_argument("--host", default="127.0.0.1", help="address the viewer serves on (default: loopback only)")
-    run_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
-    run_parser.set_defaults(command_parser=run_parser)
     view_parser = commands.add_parser("view", help="open MuJoCo's interactive viewer on an MJCF scene",
                                       description="Open MuJoCo's interactive viewer (simulate) on an MJCF scene "
                                       "with the viscera plugin loaded and the intestine drawn, from the scene's "
                                       "first camera. Its Camera menu (or the [ and ] keys) switches cameras, "
                                       "Esc frees the camera. Needs a display. To drive a task's tools, use teleop.")
     view_parser.add_argument("scene", help="MJCF file, e.g. assets/scenes/abdomen.xml")
-    view_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
-    view_parser.set_defaults(command_parser=view_parser)
 
-    from viscera.recording import POLICIES
     from viscera.teleop.devices import DEVICES
     teleop_parser = commands.add_parser(
         "teleop", help="drive a task's tools yourself in MuJoCo's viewer, then get the score",
@@ -377,20 +396,20 @@ def build_parser() -> argparse.ArgumentParser:
     teleop_parser.add_argument("--record", type=cli.output_file(".npz"),
                                help="save the session to this file, for replay")
     teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
-    teleop_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
-    teleop_parser.set_defaults(command_parser=teleop_parser)
+    play_parser = commands.add_parser(
+        "play", help="play one whole episode of a task with a policy and say whether it succeeded",
+        description="Play one whole episode of a task (its own time limit) with its scripted policy, or random "
+        "or idle actions, and print the score and the verdict. The exit status is 0 if the episode "
+        "succeeded, 1 if not (2: a mistake in the command).")
+    task_arguments(play_parser, seed_required=False)
+    policy_arguments(play_parser, required=False)
     record_parser = commands.add_parser(
         "record", help="record an episode of a task played by a policy (no person), with its score",
         description="Run one episode of a task with a scripted, random or idle policy, save it for replay, and "
         "print its score, the final state's SHA-256 and the verdict.")
     task_arguments(record_parser, seed_required=True)
-    record_parser.add_argument("--policy", choices=POLICIES, required=True,
-                               help="scripted (the task's script), random (uniform actions, numpy's "
-                               "default_rng(seed)) or idle (the tools held withdrawn)")
     record_parser.add_argument("--out", type=cli.output_file(".npz"), required=True, help="the recording (.npz)")
-    record_parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    record_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
-    record_parser.set_defaults(command_parser=record_parser)
+    policy_arguments(record_parser, required=True)
     replay_parser = commands.add_parser(
         "replay", help="replay a recording bit for bit and print its score",
         description="Replay a recording (teleop --record or record) bit for bit, check it ends in the recorded "
@@ -404,8 +423,9 @@ def build_parser() -> argparse.ArgumentParser:
                                help="write each tool's motion as a ToolTrajectory file: OUT.json gives "
                                "OUT_<tool>.json per tool")
     replay_parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    replay_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
-    replay_parser.set_defaults(command_parser=replay_parser)
+    for command_parser in commands.choices.values():  # each command's last option, and its name for main
+        command_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
+        command_parser.set_defaults(command_parser=command_parser)
     return parser
 
 
@@ -422,6 +442,9 @@ def main(argv: list[str] | None = None) -> int:
                                 status=2)
             from viscera.teleop.app import teleop
             teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit)
+        elif args.command == "play":
+            success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet)
+            return 0 if success else 1
         elif args.command == "record":
             record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet)
         elif args.command == "replay":

@@ -1,8 +1,7 @@
-"""viscera.batch is viscera.scale.batch (the learning and scale-out interfaces live in viscera.scale);
-this name stays for the programs that import it."""
+"""The batched stepping of viscera.scale.batch under its first name (the learning and scale-out
+interfaces live in viscera.scale): the same objects, re-exported for programs that import them
+from here."""
 
-import sys
+from viscera.scale.batch import FULLPHYSICS, BatchResult, BatchStepper, available_cores, serial_step, state_of
 
-from viscera.scale import batch as _module
-
-sys.modules[__name__] = _module
+__all__ = ["FULLPHYSICS", "BatchResult", "BatchStepper", "available_cores", "serial_step", "state_of"]

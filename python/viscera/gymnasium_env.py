@@ -1,8 +1,7 @@
-"""viscera.gymnasium_env is viscera.scale.gym_env (the learning and scale-out interfaces live in viscera.scale);
-this name stays for the programs that import it."""
+"""The gymnasium adapter of viscera.scale.gym_env under its first name (the learning and
+scale-out interfaces live in viscera.scale): the same objects, re-exported for programs that
+import them from here. Needs gymnasium."""
 
-import sys
+from viscera.scale.gym_env import IMAGE_BOUNDS, IMAGE_KEYS, KNOWN_BOUNDS, TaskEnv
 
-from viscera.scale import gym_env as _module
-
-sys.modules[__name__] = _module
+__all__ = ["IMAGE_BOUNDS", "IMAGE_KEYS", "KNOWN_BOUNDS", "TaskEnv"]

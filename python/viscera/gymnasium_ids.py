@@ -11,8 +11,10 @@ its ids when it is imported (ale_py, shimmy), so that all of these work:
 `import viscera` must stay cheap and must not need gymnasium, so it does not
 import gymnasium (about 50 ms here): if gymnasium is already imported the ids are
 registered at once, otherwise `install()` registers them the moment gymnasium's
-own import finishes. Entry points are strings, so registering imports neither the
-tasks nor dm_control; they load on the first `gym.make`.
+own import finishes. The ids are the tasks' own (each task module's
+`@base.register(name, id)`), which viscera.task_registry reads from the source, and
+entry points are strings, so registering imports neither the tasks nor dm_control;
+they load on the first `gym.make`.
 """
 
 from __future__ import annotations
@@ -21,16 +23,24 @@ import importlib.abc
 import importlib.util
 import sys
 
-from viscera.task_registry import TASKS
+from viscera import task_registry
 
-# task name (viscera.tasks.ALL) -> gymnasium id, from the one task registry
-ENV_IDS = {task: env_id for task, (_, env_id) in TASKS.items()}
+
+def env_ids() -> dict[str, str]:
+    """Task name (viscera.tasks.ALL) -> gymnasium id, from the tasks' own registrations."""
+    return {task: env_id for task, (_, env_id) in task_registry.tasks().items()}
+
+
+def __getattr__(name: str):
+    if name == "ENV_IDS":  # read on first use: `import viscera` stays cheap
+        return env_ids()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register() -> None:
-    """Register the ids of ENV_IDS with gymnasium (idempotent; imports gymnasium)."""
+    """Register the ids of env_ids() with gymnasium (idempotent; imports gymnasium)."""
     import gymnasium
-    for task, env_id in ENV_IDS.items():
+    for task, env_id in env_ids().items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point="viscera.scale.gym_env:TaskEnv",
                                vector_entry_point="viscera.scale.vector:make_threads", kwargs={"task": task})

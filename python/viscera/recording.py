@@ -320,17 +320,12 @@ def replay(recording: Recording, on_step: Callable | None = None, progress: bool
     return ReplayResult(final_state_sha256(env.physics), bool(env.task.success(env.physics)), steps, env)
 
 
-SUCCESS_CRITERIA = {  # the verdict line's criterion, from each task's module doc
-    "clear_area": "the target uncovered for 2 s, the tools clear of it and still",
-    "grasp_lift": "the marked band held 5 cm above the posterior wall for 1 s",
-    "run_the_bowel": "30 cm of bowel run hand over hand without letting go",
-    "retract_reach": "the loops held back and the grasper at the target's centre",
-}
-
-
 def verdict(task: str, success: bool) -> str:
-    """The last line of record and replay: success yes or no, against the task's criterion."""
-    return f"success: {'yes' if success else 'no'} ({task}: {SUCCESS_CRITERIA.get(task, 'the task’s goal')})"
+    """The last line of play, record and replay: success yes or no, against the task's criterion
+    (its class's CRITERION)."""
+    import viscera.tasks
+    criterion = viscera.tasks.base.SUITE.get(task, viscera.tasks.base.BowelTask).CRITERION
+    return f"success: {'yes' if success else 'no'} ({task}: {criterion})"
 
 
 # -- the motion as scripted trajectories (viscera.trajectory)

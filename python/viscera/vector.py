@@ -1,8 +1,7 @@
-"""viscera.vector is viscera.scale.vector (the learning and scale-out interfaces live in viscera.scale);
-this name stays for the programs that import it."""
+"""The vector environments of viscera.scale.vector under their first name (the learning and
+scale-out interfaces live in viscera.scale): the same objects, re-exported for programs that
+import them from here."""
 
-import sys
+from viscera.scale.vector import BACKENDS, ThreadVectorEnv, make, make_threads
 
-from viscera.scale import vector as _module
-
-sys.modules[__name__] = _module
+__all__ = ["BACKENDS", "ThreadVectorEnv", "make", "make_threads"]

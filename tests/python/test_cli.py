@@ -24,12 +24,12 @@ QUICK = 60  # s: loading and checking takes about one
 LONG = 1e5  # simulated s: hours of stepping, so an error that comes after any simulation times out
 TOOL_SCRIPTS = ROOT / "python" / "tools"  # the checkout's tools, not installed (tests/python/conftest.py)
 # every command: its name in usage lines, and the module whose main() it runs
-TOOLS = {"python -m viscera": "viscera.__main__", "python -m viscera.tasks.gesture": "viscera.tasks.gesture",
+TOOLS = {"python -m viscera": "viscera.__main__",
          "python -m viscera.meshcat_server": "viscera.meshcat_server",
          **{f"python python/tools/{name}.py": name.replace("/", ".")
             for name in ("settle", "soak", "validate", "validation/peers", "bench_fall", "bench_cavity",
                          "bench_rollout", "bench_scale", "bench_pixels", "pixel_pictures", "task_rates",
-                         "task_pictures")}}
+                         "task_pictures", "digest", "bench_versus")}}
 
 
 def command(prog: str) -> list[str]:
@@ -120,6 +120,9 @@ def test_run_refuses_a_bad_option_in_one_line(tmp_path, option, value, names):
     (["record", "clear_area", "--seed", "1", "--policy", "idle", "--out", "a.txt"], ["--out", ".npz"]),
     (["record", "clear_area", "--seed", "1", "--policy", "idle", "--out", "a.npz", "--time-limit", "0"], ["--time-limit"]),
     (["record", "clear_area", "--sed", "1", "--policy", "idle", "--out", "a.npz"], ["did you mean --seed?"]),
+    (["play", "grasp_lfit"], ["did you mean 'grasp_lift'?"]),
+    (["play", "grasp_lift", "--policy", "smart"], ["smart", "scripted, random, idle"]),
+    (["play", "grasp_lift", "--seed", "-1"], ["--seed", "-1"]),
     (["replay", "nope.npz"], ["nope.npz", "no such file"]),
     (["replay", "{tmp}/x.npz", "--json", "x.txt"], ["--json", ".json"]),
     (["replay", "{tmp}"], ["is a folder"]),
@@ -287,8 +290,7 @@ SETTLE = "python python/tools/settle.py"
 
 @pytest.mark.parametrize("prog, args, names", [
     ("python python/tools/soak.py", ["--minutes", "-1"], ["--minutes", "-1"]),
-    ("python -m viscera.tasks.gesture", ["--duration", "nan"], ["--duration", "nan"]),
-    ("python -m viscera.tasks.gesture", ["--png-after", "no/such/folder/a.png"], ["--png-after", "does not exist"]),
+    ("python python/tools/bench_versus.py", ["no/such/python"], ["no/such/python", "no such file"]),
     ("python python/tools/bench_fall.py", ["--duration", "nan"], ["--duration", "nan"]),
     ("python python/tools/bench_pixels.py", ["--sizes", "0"], ["--sizes", "0"]),
     ("python python/tools/bench_scale.py", ["--parts", "pixels"], ["--parts", "pixels"]),

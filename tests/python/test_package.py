@@ -107,18 +107,36 @@ def test_intestines_skips_other_plugins_and_reports_resolved_defaults():
     assert gut.mass == pytest.approx(900 * np.pi * 0.0125**2 * 2.0)
 
 
+def _defined_at_top(module) -> set[str]:
+    """The names a module's own source defines at its top level (functions, classes, constants)."""
+    import ast
+    import inspect
+    names = set()
+    for node in ast.parse(inspect.getsource(module)).body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Assign):
+            names.update(t.id for t in node.targets if isinstance(t, ast.Name))
+    return names
+
+
 def test_the_learning_interfaces_keep_their_old_names():
-    """viscera.batch, viscera.vector and viscera.gymnasium_env are the modules of viscera.scale
-    (one home for the learning and scale-out interfaces), the very same objects."""
+    """viscera.batch, viscera.vector and viscera.gymnasium_env re-export what viscera.scale's
+    modules define (one home for the learning and scale-out interfaces): every public name, the
+    very same objects, as documented re-exports rather than module aliases."""
     import viscera.batch
     import viscera.gymnasium_env
     import viscera.scale.batch
     import viscera.scale.gym_env
     import viscera.scale.vector
     import viscera.vector
-    assert viscera.batch is viscera.scale.batch and viscera.vector is viscera.scale.vector
-    assert viscera.gymnasium_env is viscera.scale.gym_env
-    assert viscera.batch.BatchStepper is viscera.scale.batch.BatchStepper
+    for old, new in ((viscera.batch, viscera.scale.batch), (viscera.vector, viscera.scale.vector),
+                     (viscera.gymnasium_env, viscera.scale.gym_env)):
+        assert old is not new and old.__doc__
+        public = {name for name in _defined_at_top(new) if not name.startswith("_")}
+        assert public <= set(old.__all__), (old.__name__, public - set(old.__all__))
+        for name in old.__all__:
+            assert getattr(old, name) is getattr(new, name)
 
 
 def test_the_library_imports_no_tool_dependencies_and_ships_no_tools():

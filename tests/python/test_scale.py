@@ -159,7 +159,7 @@ def test_the_scripted_gesture_collects_the_same_everywhere():
 @pytest.mark.parametrize("kwargs, message", [
     ({"backend": "gpu"}, r"backend = 'gpu': must be one of \('serial', 'threads', 'processes', 'ray'\)"),
     ({"workers": 0}, r"workers = 0: must be at least 1"),
-    ({"task": "appendectomy"}, r"task = 'appendectomy': must be one of \('clear_area', 'grasp_lift', 'run_the_bowel', 'retract_reach'\)"),
+    ({"task": "appendectomy"}, r"task = 'appendectomy': must be one of \('clear_area', 'grasp_lift', 'retract_reach', 'run_the_bowel'\)"),
     ({"policy": "greedy"}, r"policy = 'greedy': must be one of \('random', 'scripted', 'gesture'\)"),
     ({"seeds": [1, 2, 1]}, r"seeds repeat: \[1\]"),
     ({"steps": -1}, r"steps = -1: must be at least 0"),

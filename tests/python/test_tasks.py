@@ -1,5 +1,9 @@
 """dm_control tasks, in the manner of dm_control's suite_test: specs, determinism, robustness."""
 
+import collections
+import os
+import pathlib
+import shutil
 import subprocess
 import sys
 
@@ -9,7 +13,11 @@ import pytest
 from mujoco import rollout
 
 import viscera.tasks
+from viscera import task_registry
+from viscera.tasks import base
 from viscera.tasks.gesture import ClearingGesture
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def random_actions(env, seed, count):
@@ -19,12 +27,159 @@ def random_actions(env, seed, count):
 
 
 def test_registry():
-    """At least the four tasks the suite promises, each with a gymnasium id, in one registry."""
-    assert viscera.tasks.ALL == tuple(viscera.task_registry.TASKS)
+    """At least the four tasks the suite promises, each registered by its own module's decorator
+    (the class in SUITE, its module and gymnasium id as task_registry reads them from the source),
+    each with its criterion and scripted policy, and no gymnasium id twice."""
+    assert viscera.tasks.ALL == tuple(task_registry.TASKS)
     assert {"clear_area", "grasp_lift", "run_the_bowel", "retract_reach"} <= set(viscera.tasks.ALL)
-    assert len({env_id for _, env_id in viscera.task_registry.TASKS.values()}) == len(viscera.tasks.ALL)
+    for name, (module, env_id) in task_registry.TASKS.items():
+        task = base.SUITE[name]
+        assert task.__module__ == f"viscera.tasks.{module}" and (task.NAME, task.ENV_ID) == (name, env_id)
+        assert task.CRITERION != base.BowelTask.CRITERION and task.POLICY is not None
+    assert sorted(name for name, task in base.SUITE.items() if task.__module__.startswith("viscera.tasks.")) == \
+        sorted(viscera.tasks.ALL)
+    assert len({env_id for _, env_id in task_registry.TASKS.values()}) == len(viscera.tasks.ALL)
     with pytest.raises(KeyError, match="clear_area"):
         viscera.tasks.load("clear_the_area")
+
+
+def test_the_registry_reads_the_decorators_from_the_source():
+    """task_registry finds `@register("name", "id")` and `@base.register(...)` on classes, with
+    string literals only (what viscera.tasks then checks it found); a name registered twice is refused."""
+    source = """
+@base.register("one", "viscera/One-v0")
+class One(base.BowelTask): ...
+@register("two", "viscera/Two-v0")
+class Two(base.BowelTask): ...
+@base.register(NAME, "viscera/Three-v0")
+class Three(base.BowelTask): ...
+@other("four", "viscera/Four-v0")
+class Four: ...
+"""
+    assert task_registry.registrations(source) == [("one", "viscera/One-v0"), ("two", "viscera/Two-v0")]
+    with pytest.raises(ValueError, match="'clear_area' is registered twice"):
+        base.register("clear_area", "viscera/ClearArea-v1")(type("Other", (base.BowelTask,), {}))
+    assert base.SUITE["clear_area"] is viscera.tasks.clear_area.ClearArea
+
+
+TINY_TASK = '''"""tiny_reach: a task written for a test, in one file and nowhere else."""
+
+import numpy as np
+
+from viscera.tasks import base
+from viscera.tasks.scene import Tool
+
+
+@base.register("tiny_reach", "viscera/TinyReach-v0")
+class TinyReach(base.BowelTask):
+    """Touch the target's centre with the grasper."""
+
+    CRITERION = "the grasper at the target's centre"
+    TOOLS = (Tool("grasper", "grasper", "right"),)
+    TIME_LIMIT_S = 0.1
+
+    def condition(self, physics):
+        return bool(np.linalg.norm(physics.working_point("grasper") - physics.target()[:3]) < 0.01)
+
+    def task_observations(self, physics):
+        return {"target_coverage": self.measurements(physics).coverage.copy()}
+
+    def get_reward(self, physics):
+        return self.measurements(physics).uncovered_fraction
+'''
+
+
+def test_a_new_task_is_one_file(tmp_path):
+    """A copy of the package with one more file in viscera/tasks/ and no other change: the task is
+    in ALL and the command line's choices, loads and plays, and its gymnasium id is registered
+    when gymnasium is imported, still without importing dm_control."""
+    package = pathlib.Path(viscera.__file__).parent
+    copy = tmp_path / "viscera"
+    shutil.copytree(package, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    if not (copy / "assets").exists():  # the source tree: its scenes live beside the package
+        shutil.copytree(ROOT / "assets" / "scenes", copy / "assets")
+    (copy / "tasks" / "tiny_reach.py").write_text(TINY_TASK)
+    code = """
+import sys, numpy as np, viscera, gymnasium as gym
+print(viscera.__file__.startswith(sys.argv[1]), "dm_control" in sys.modules)
+print(gym.spec("viscera/TinyReach-v0").kwargs["task"], "dm_control" in sys.modules)
+from viscera.__main__ import build_parser
+print(build_parser().parse_args(["play", "tiny_reach"]).task)
+import viscera.tasks
+print("tiny_reach" in viscera.tasks.ALL, viscera.tasks.base.SUITE["tiny_reach"].__name__)
+env = viscera.tasks.load("tiny_reach", seed=0)
+step, steps = env.reset(), 0
+while not step.last():
+    step, steps = env.step(np.zeros(env.action_spec().shape)), steps + 1
+print(list(step.observation)[-1], 0.0 <= step.reward <= 1.0, steps)
+genv = gym.make("viscera/TinyReach-v0")
+observation, info = genv.reset(seed=0)
+print(genv.observation_space.contains(observation))
+"""
+    environment = dict(os.environ, PYTHONPATH=str(tmp_path), VISCERA_PLUGIN_LIBRARY=str(viscera.PLUGIN_LIBRARY))
+    done = subprocess.run([sys.executable, "-c", code, str(copy)], capture_output=True, text=True, timeout=600,
+                          cwd=tmp_path, env=environment)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "False", "tiny_reach", "False", "tiny_reach", "True", "TinyReach",
+                                   "target_coverage", "True", "5", "True"]
+
+
+def test_one_factory_builds_every_task_with_its_own_options():
+    """viscera.tasks.load and each task module's load build through base.build: the shared
+    options for every task, a task's own (clear_area's end_on_success) for it alone, refused
+    elsewhere as Python refuses an unknown keyword."""
+    env = viscera.tasks.clear_area.load(seed=0, time_limit=0.5, end_on_success=False)
+    assert type(env.task) is viscera.tasks.clear_area.ClearArea and not env.task.end_on_success
+    assert env.time_limit_s == pytest.approx(0.5) and env.control_timestep() == pytest.approx(0.02)
+    assert viscera.tasks.load("grasp_lift", control_timestep=0.04).time_limit_s == pytest.approx(15.0)
+    for name, option in (("grasp_lift", "end_on_success"), ("clear_area", "random"), ("run_the_bowel", "pixel")):
+        with pytest.raises(TypeError, match=rf"^load\(\) got an unexpected keyword argument '{option}'$"):
+            viscera.tasks.load(name, **{option: False})
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'end_on_success'"):
+        viscera.tasks.grasp_lift.load(end_on_success=False)
+
+
+def test_each_step_measures_the_bowel_once(monkeypatch):
+    """The condition, the reward and the observation of a step read one Measurements record: the
+    dense axis and the target's coverage are computed once per control step, though retract_reach
+    reads them in all three."""
+    calls = collections.Counter()
+    dense_axis, coverage = base.Physics.dense_axis, base.Physics.coverage
+
+    def counted_axis(physics):
+        calls["dense_axis"] += 1
+        return dense_axis(physics)
+
+    def counted_coverage(physics, points=None, axis=None):
+        calls["coverage"] += points is None  # the target's; the target's placement tries others
+        return coverage(physics, points, axis)
+
+    monkeypatch.setattr(base.Physics, "dense_axis", counted_axis)
+    monkeypatch.setattr(base.Physics, "coverage", counted_coverage)
+    env = viscera.tasks.load("retract_reach", seed=0, time_limit=1.0)
+    env.reset()
+    calls.clear()
+    records = []
+    for action in random_actions(env, 5, 10):
+        step = env.step(action)
+        records.append(env.task.measurements(env.physics))
+        assert 0.0 <= step.reward <= 1.0
+    assert calls == {"dense_axis": 10, "coverage": 10}
+    assert len({id(record) for record in records}) == 10  # a new record each step
+
+
+@pytest.mark.parametrize("randomize", [True, False])
+def test_the_measurements_are_of_the_state_observed(randomize):
+    """After a reset and after each step, the observation's coverage is the physics' own,
+    measured anew from its state, never an earlier state's."""
+    env = viscera.tasks.load("clear_area", seed=2, time_limit=1.0, randomize=randomize)
+    actions = random_actions(env, 3, 5)
+    for act in [env.reset] + [lambda action=action: env.step(action) for action in actions] + [env.reset]:
+        step = act()
+        fresh = env.physics.coverage(env.physics.target_points()[:, :2], axis=env.physics.dense_axis())
+        np.testing.assert_array_equal(step.observation["target_coverage"], fresh)
+        if step.reward is not None:
+            assert step.reward == float(1.0 - fresh.mean())
 
 
 def full_state(env) -> np.ndarray:
@@ -156,15 +311,21 @@ def test_the_scripted_gesture_clears_the_shipped_scene_and_again_after_a_reset()
     assert results[1] == results[0]
 
 
-def test_gesture_command_prints_the_uncovered_fraction_last():
-    """`python -m viscera.tasks.gesture` plays a whole episode and prints the final uncovered
-    fraction last, as the reward gives it."""
-    done = subprocess.run([sys.executable, "-m", "viscera.tasks.gesture", "--quiet", "--duration", "3"],
-                          capture_output=True, text=True, timeout=600)
+def test_play_command_plays_the_whole_episode_and_says_whether_it_succeeded():
+    """`python -m viscera play TASK` plays the task's own episode (its time limit, not a
+    shorter default) with its scripted policy and ends with the verdict; the exit status says
+    it too: 0 for a success, 1 for a failure (idle tools never succeed)."""
+    def play(*args):
+        return subprocess.run([sys.executable, "-m", "viscera", "play", "grasp_lift", "--quiet", *args],
+                              capture_output=True, text=True, timeout=600)
+    done = play("--seed", "0")
     assert done.returncode == 0, done.stderr
-    last = done.stdout.strip().splitlines()[-1]
-    assert last.startswith("uncovered: ")
-    assert 0.0 <= float(last.split(":")[1]) <= 1.0
+    lines = done.stdout.strip().splitlines()
+    assert lines[-1].startswith("success: yes (grasp_lift: ")
+    assert "251 ticks" in lines[0]  # 5.02 s of 20 ms: it ran until the success, not a fixed duration
+    idle = play("--seed", "0", "--policy", "idle", "--time-limit", "1")
+    assert idle.returncode == 1, idle.stderr
+    assert idle.stdout.strip().splitlines()[-1].startswith("success: no")
 
 
 def test_the_environment_steps_under_mujoco_rollout():

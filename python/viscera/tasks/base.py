@@ -1,24 +1,46 @@
 """What every bowel task shares: the physics with its named accessors, randomised episodes, the
-common observations, and success that lasts.
+common observations, success that lasts, and the one factory that builds any task.
 
-A task (dm_control's suite convention: a Physics, a Task, a `load()` front door) subclasses
-BowelTask and defines:
-- TOOLS, its tool set (scene.Tool: name, kind, trocar);
+A task is one module of viscera.tasks, its class registered where it is written, as dm_control's
+suite registers its tasks (`@SUITE.add` in suite/cartpole.py):
+
+    @base.register("grasp_lift", "viscera/GraspLift-v0")   # its name and gymnasium id, literals
+    class GraspLift(base.BowelTask):
+        CRITERION = "the marked band held 5 cm above the posterior wall for 1 s"
+        TOOLS = (Tool("grasper", "grasper", "right"),)
+        POLICY = GraspLiftPolicy                            # its scripted policy: POLICY(env)
+        ...
+
+    load = base.loader(GraspLift)   # optional: viscera.tasks.grasp_lift.load(seed=0, ...)
+
+Nothing else lists it: viscera.tasks imports every module of the folder that registers a task
+(viscera.task_registry finds them, and their gymnasium ids, from the source without importing it),
+and `build`, the one factory, makes any task's environment (viscera.tasks.load). A task defines:
+- TOOLS, its tool set (scene.Tool: name, kind, trocar), and CRITERION, its success in words;
 - `condition(physics)`, the instantaneous goal; `success(physics)` is True once it has held for
   the last HOLD_S seconds of simulated time, and the episode then ends (discount 0);
 - `task_observations(physics)` and `get_reward(physics)` (shaped, in [0, 1]);
-- optionally `draw(physics)`, drawing the task's own episode details (target, marks) after the
-  bowel has settled, and `failure(physics)`, which ends an episode early (discount 0).
+- optionally its own keyword options (its __init__'s besides BowelTask's: clear_area's
+  end_on_success), POLICY, `draw(physics)`, drawing the task's own episode details after the
+  bowel has settled (by default the target is placed, when the task has one), and
+  `failure(physics)`, which ends an episode early (discount 0).
+
+One step's measurements: what the condition, the reward and the observation read of the bowel
+over the target (the dense axis, the target's coverage) is `task.measurements(physics)`, a
+Measurements record made anew after every control step and at every reset (dm_control's
+after_step), each value computed once, when first read.
 
 Each episode (initialize_episode, from the task's RandomState: same seed, same episode, bit for
 bit) draws a settled start, tissue and tilt (scene.draw_episode), rebuilds the physics with them
 and the task's tools (a 12 ms compile), lets the bowel settle under the drawn tissue and tilt for
 SETTLE_S with the tools withdrawn, then restarts the clock at 0.
 """
-
 from __future__ import annotations
 
 import collections
+import functools
+import inspect
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -51,7 +73,6 @@ class Physics(dm_mujoco.Physics):
         cached = getattr(self, "_intestine", None)
         if cached is None or cached.model is not model:  # reload_from_* replaces the model
             cached = self._intestine = viscera.intestine(model)
-            self._coverage_key = None
         return cached
 
     def axis_points(self, count: int = AXIS_SAMPLES) -> np.ndarray:
@@ -76,18 +97,17 @@ class Physics(dm_mujoco.Physics):
         x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
         return np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
 
-    def coverage(self, points: np.ndarray | None = None) -> np.ndarray:
-        """1 where the tube lies over a target point (within one radius in the wall's plane)."""
+    def dense_axis(self) -> np.ndarray:
+        """The axis at four points per collision sphere (m, (4 S, 3)): what coverage reads."""
         gut = self.intestine()
-        key = (self.data.time, gut.positions(self.data.ptr).tobytes())
-        if points is None and getattr(self, "_coverage_key", None) == key:  # reward, success, observation
-            return self._coverage.copy()
+        return gut.axis_points(self.data.ptr, 4 * gut.sphere_count)
+
+    def coverage(self, points: np.ndarray | None = None, axis: np.ndarray | None = None) -> np.ndarray:
+        """1 where the tube lies over a target point (within one radius in the wall's plane);
+        `points` (m, (k, 2)) instead of the target's, `axis` the dense_axis if already measured."""
         target = self.target_points()[:, :2] if points is None else points
-        axis = gut.axis_points(self.data.ptr, 4 * gut.sphere_count)[:, :2]
-        covered = cells_under_tube(target, axis, gut.radius).astype(float)
-        if points is None:
-            self._coverage_key, self._coverage = key, covered
-        return covered.copy()
+        axis = self.dense_axis() if axis is None else axis
+        return cells_under_tube(target, axis[:, :2], self.intestine().radius).astype(float)
 
     def uncovered_fraction(self) -> float:
         return float(1.0 - self.coverage().mean())
@@ -190,8 +210,58 @@ def cells_under_tube(cells: np.ndarray, axis: np.ndarray, radius: float) -> np.n
     return squared.min(axis=1) <= radius ** 2
 
 
+class Measurements:
+    """What one state of the physics gives its step's condition, reward and observation, each
+    value computed once, when first read (BowelTask.measurements): a record is of one MjData at
+    one time, so that it is never read for another state."""
+
+    def __init__(self, physics: Physics):
+        self.physics = physics
+        self.data, self.time = physics.data.ptr, float(physics.data.time)
+
+    def of(self, physics: Physics) -> bool:
+        """Whether this is the record of `physics` as it is now (its MjData, at its time)."""
+        return physics.data.ptr is self.data and float(physics.data.time) == self.time
+
+    @functools.cached_property
+    def dense_axis(self) -> np.ndarray:
+        """The axis at four points per collision sphere (m, (4 S, 3)): Physics.dense_axis."""
+        return self.physics.dense_axis()
+
+    @functools.cached_property
+    def coverage(self) -> np.ndarray:
+        """The target's GRID x GRID points, 1 where the tube lies over one: Physics.coverage."""
+        return self.physics.coverage(axis=self.dense_axis)
+
+    @functools.cached_property
+    def uncovered_fraction(self) -> float:
+        return float(1.0 - self.coverage.mean())
+
+
+SUITE: dict[str, type[BowelTask]] = {}  # task name -> its class, filled as the task modules are imported
+
+
+def register(name: str, env_id: str) -> Callable[[type[BowelTask]], type[BowelTask]]:
+    """Class decorator: the task called `name` (viscera.tasks.load(name)), with gymnasium id
+    `env_id` (viscera/Name-vN). viscera.task_registry reads both from the source, so write them
+    as string literals."""
+    def add(task: type[BowelTask]) -> type[BowelTask]:
+        if SUITE.get(name, task) is not task:
+            raise ValueError(f"task {name!r} is registered twice: {SUITE[name].__module__}.{SUITE[name].__qualname__} "
+                             f"and {task.__module__}.{task.__qualname__}")
+        task.NAME, task.ENV_ID = name, env_id
+        SUITE[name] = task
+        return task
+    return add
+
+
 class BowelTask(base.Task):
     """A task on the randomised abdomen; see the module doc."""
+
+    NAME = ""             # its name and gymnasium id: set by register
+    ENV_ID = ""
+    CRITERION = "the task’s goal"  # its success in a few words (the verdict line of play, record and replay)
+    POLICY: Callable | None = None  # its scripted policy: POLICY(env) is a callable time_step -> action
 
     TOOLS: tuple[scene.Tool, ...] = ()
     HOLD_S = 0.0          # s the condition must hold for success
@@ -203,7 +273,33 @@ class BowelTask(base.Task):
         self.randomize = randomize
         self.episode: scene.Episode | None = None
         self._held_since: float | None = None
+        self._failed = False
         self.camera = None  # viscera.pixels.Camera when pixels are observed
+        self._measured: Measurements | None = None  # the last state's (measurements)
+
+    def reseed(self, seed: int | None) -> None:
+        """Draw the next episodes as a task built with `seed` would (numpy's RandomState(seed)):
+        for an environment reused with another seed (viscera.tasks.reseed, gymnasium's reset)."""
+        self._random = np.random.RandomState(seed)  # dm_control's Task keeps its `random` there
+
+    def scripted_policy(self, env) -> Callable:
+        """This task's scripted closed-loop policy for `env`: a callable time_step -> action."""
+        if self.POLICY is None:
+            raise NotImplementedError(f"task {self.NAME!r} has no scripted policy")
+        return self.POLICY(env)
+
+    def measurements(self, physics: Physics) -> Measurements:
+        """The measurements of `physics` as it is now, which the condition, the reward and the
+        observation share: the record after_step made after this control step or reset, or a new
+        one for a state no step made (dm_control's observation_spec observes before a reset)."""
+        if self._measured is None or not self._measured.of(physics):
+            self._measured = Measurements(physics)
+        return self._measured
+
+    @property
+    def failed(self) -> bool:
+        """The episode has failed (`failure` held after some step): it ended, or ends, without success."""
+        return self._failed
 
     # -- the scene
     TARGET_HALF_M = (0.02, 0.015)  # the target patch's half sizes in randomised episodes (4 x 3 cm)
@@ -233,7 +329,7 @@ class BowelTask(base.Task):
         self._held_since = None
         self._failed = False
         self.prepare(physics)
-        super().initialize_episode(physics)
+        super().initialize_episode(physics)  # dm_control's: calls after_step
 
     def prepare(self, physics: Physics) -> None:
         """Rebuild the physics for this episode, settle it, then draw the task's own details; a
@@ -271,8 +367,10 @@ class BowelTask(base.Task):
         return physics.target()[:3]
 
     def draw(self, physics: Physics) -> None:
-        """The task's own random details, on the settled bowel (default: none). Not called
-        when the episodes are not randomised."""
+        """The task's own random details, on the settled bowel (default: the target placed, when
+        the task has one). Not called when the episodes are not randomised."""
+        if self.HAS_TARGET:
+            self.move_target(physics)
 
     def move_target(self, physics: Physics) -> None:
         """Place the target where the settled bowel covers it (scene.place_target); the site is
@@ -281,20 +379,19 @@ class BowelTask(base.Task):
         u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
         offsets = np.stack(np.meshgrid(u * half[0], u * half[1]), axis=-1).reshape(-1, 2)
 
-        def coverage_at(x: float, y: float) -> float:
-            return float(physics.coverage(offsets + np.array([x, y])).mean())
+        axis = physics.dense_axis()  # the bowel stays: one axis for every place tried
+        radius = physics.intestine().radius
 
-        gut = physics.intestine()
-        axis = gut.axis_points(physics.data.ptr, 4 * gut.sphere_count)[:, :2]
+        def coverage_at(x: float, y: float) -> float:
+            return float(physics.coverage(offsets + np.array([x, y]), axis=axis).mean())
 
         def loops_at(x: float, y: float) -> int:
-            over = np.all(np.abs(axis - (x, y)) <= half + gut.radius, axis=1)
+            over = np.all(np.abs(axis[:, :2] - (x, y)) <= half + radius, axis=1)
             return int(np.count_nonzero(np.diff(over.astype(int)) == 1) + over[0])
 
         x, y = scene.place_target(self.random, coverage_at, loops_at)
         physics.named.model.site_pos["target_area"][:2] = (x, y)
         mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
-        physics._coverage_key = None  # the same bowel over another target
 
     # -- success that lasts
     def condition(self, physics: Physics) -> bool:
@@ -305,6 +402,9 @@ class BowelTask(base.Task):
         return False
 
     def after_step(self, physics: Physics) -> None:
+        """After every control step and at every reset: this state's measurements, then whether
+        the condition holds (and since when) and whether the episode failed."""
+        self._measured = Measurements(physics)
         if self.condition(physics):
             if self._held_since is None:
                 self._held_since = float(physics.data.time)
@@ -361,9 +461,50 @@ def checked_axis_samples(axis_samples: int) -> int:
     return axis_samples
 
 
-def make(task: BowelTask, time_limit: float | None, control_timestep: float) -> control.Environment:
-    """The environment of `task`: its physics built from the shipped scene with the task's tools
-    (every reset rebuilds it for the episode)."""
+class Environment(control.Environment):
+    """dm_control's control.Environment, with the episode's length public (a policy that plans to
+    the end of the episode reads it)."""
+
+    @property
+    def time_limit_s(self) -> float:
+        """The episode's length (s): dm_control's step limit times the control timestep (inf: none)."""
+        return float(self._step_limit) * self.control_timestep()
+
+
+BUILD_OPTIONS = ("time_limit", "control_timestep", "axis_samples", "randomize")  # every task's, besides its own
+
+
+def own_options(task_class: type[BowelTask]) -> tuple[str, ...]:
+    """The keyword options a task class adds to BowelTask's (its __init__'s other parameters)."""
+    shared = set(inspect.signature(BowelTask.__init__).parameters)
+    return tuple(name for name in inspect.signature(task_class.__init__).parameters if name not in shared)
+
+
+def build(task_class: type[BowelTask], seed: int | None = None, time_limit: float | None = None,
+          control_timestep: float = 0.02, axis_samples: int = AXIS_SAMPLES, randomize: bool = True,
+          **options) -> Environment:
+    """The environment of any task class, the one factory (viscera.tasks.load): its episodes drawn
+    from numpy's RandomState(seed); time_limit in s (default the task's TIME_LIMIT_S),
+    control_timestep in s; axis_samples, the intestine axis points observed; randomize False:
+    every episode the shipped scene's bowel, tissue, tilt and target. `options` are the task's
+    own (its __init__'s keywords besides BowelTask's: clear_area's end_on_success). The physics
+    is built from the shipped scene with the task's tools; every reset rebuilds it for its episode."""
+    own = own_options(task_class)
+    for name in options:
+        if name not in own:
+            raise TypeError(f"load() got an unexpected keyword argument {name!r}")
+    task = task_class(random=np.random.RandomState(seed), axis_samples=checked_axis_samples(axis_samples),
+                      randomize=randomize, **options)
     physics = Physics.from_xml_string(task.scene_xml(None))
-    return control.Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,
-                               control_timestep=control_timestep)
+    return Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,
+                       control_timestep=control_timestep)
+
+
+def loader(task_class: type[BowelTask]) -> Callable[..., Environment]:
+    """A task module's `load(seed=None, **options)`: build(task_class, ...), which is
+    viscera.tasks.load(name, ...) without pixels."""
+    def load(seed: int | None = None, **options) -> Environment:
+        return build(task_class, seed, **options)
+    load.__doc__ = (f"The {task_class.NAME} environment: viscera.tasks.load({task_class.NAME!r}, seed, **options) "
+                    f"without pixels; options: {', '.join(BUILD_OPTIONS + own_options(task_class))}.")
+    return load

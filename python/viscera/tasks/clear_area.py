@@ -16,64 +16,49 @@ and the retractor (left trocar).
   uncovered, the grasper's jaws open and holding nothing, both tools clear of the target (outside
   it grown by 1 cm, or 5 cm above the wall) and still (every tool joint under 0.3 rad/s or
   0.03 m/s): the loops stay where they were put, not while tools keep stirring them. The episode ends on success, or after 90 s.
+- Scripted policy: the clearing gesture (viscera.tasks.gesture.ClearingGesture). How often it
+  succeeds is measured in docs/tasks/rates.json (python python/tools/task_rates.py).
 """
 
 from __future__ import annotations
 
-import numpy as np
-from dm_control.rl import control
-
 from viscera.tasks import base
+from viscera.tasks.base import Physics
+from viscera.tasks.gesture import ClearingGesture
 from viscera.tasks.scene import Tool
 
 UNCOVERED = 0.8    # fraction of the target
-AXIS_SAMPLES = base.AXIS_SAMPLES
-Physics = base.Physics
 
 
+@base.register("clear_area", "viscera/ClearArea-v0")
 class ClearArea(base.BowelTask):
     """Uncover the target area and leave it so; reward is the uncovered fraction."""
 
+    CRITERION = "the target uncovered for 2 s, the tools clear of it and still"
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("retractor", "retractor", "left"))
     HOLD_S = 2.0
     TIME_LIMIT_S = 90.0
+    POLICY = ClearingGesture
 
-    def __init__(self, random=None, end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES,
+    def __init__(self, random=None, end_on_success: bool = True, axis_samples: int = base.AXIS_SAMPLES,
                  randomize: bool = True):
+        """end_on_success False: a lasting success does not end the episode (e.g. to watch a
+        gesture finish)."""
         super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
         self.end_on_success = end_on_success
 
-    def draw(self, physics: Physics) -> None:
-        if self.randomize:
-            self.move_target(physics)
-
     def condition(self, physics: Physics) -> bool:
-        return (physics.uncovered_fraction() >= UNCOVERED and physics.jaws_open() and physics.tools_clear_of_target()
-                and physics.tools_still())
+        return (self.measurements(physics).uncovered_fraction >= UNCOVERED and physics.jaws_open()
+                and physics.tools_clear_of_target() and physics.tools_still())
 
     def task_observations(self, physics: Physics) -> dict:
-        return {"target": physics.target(), "target_coverage": physics.coverage()}
+        return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy()}
 
     def get_reward(self, physics: Physics) -> float:
-        return physics.uncovered_fraction()
+        return self.measurements(physics).uncovered_fraction
 
     def get_termination(self, physics: Physics):
         return super().get_termination(physics) if self.end_on_success else None
 
 
-def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
-         end_on_success: bool = True, axis_samples: int = AXIS_SAMPLES, randomize: bool = True
-         ) -> control.Environment:
-    """The clear_area environment (time limit, default 90, and control period in s; with
-    end_on_success False a lasting success does not end the episode, e.g. to watch a gesture
-    finish; axis_samples: the intestine axis points observed; randomize False: every episode the
-    shipped scene's bowel, tissue, tilt and target)."""
-    task = ClearArea(random=np.random.RandomState(seed), end_on_success=end_on_success,
-                     axis_samples=base.checked_axis_samples(axis_samples), randomize=randomize)
-    return base.make(task, time_limit, control_timestep)
-
-
-def scripted_policy(env):
-    """The clearing gesture (viscera.tasks.gesture), a closed-loop policy from the observations."""
-    from viscera.tasks.gesture import ClearingGesture
-    return ClearingGesture(env)
+load = base.loader(ClearArea)

@@ -1,6 +1,6 @@
 """The clearing gesture: pick the loops lying over the target area and lay them aside.
 
-    python -m viscera.tasks.gesture [--seed 0] [--duration 90] [--png-before B.png --png-after A.png]
+    python -m viscera play clear_area --seed 0      # one whole episode of it, and whether it succeeded
 
 A closed-loop scripted policy for the clear_area task (dm_control convention:
 ``action = policy(time_step)``), built from the observations alone (the axis
@@ -20,32 +20,23 @@ lower, release, and rise to `rise` above the wall before moving on (withdrawing
 along the shaft dragged the laid loop back). When the target is uncovered enough, or nothing covers it, or
 the time is nearly up, the grasper withdraws to its trocar with its jaws open,
 and comes back if less than `resume_below` (80 %) is uncovered. With `press`
-the retractor presses each laid loop down (off for clear_area: measured worse).
-`RetractReach` is the same gesture on retract_reach's working spot, then the
-retraction and the reach.
+the retractor presses each laid loop down (off for clear_area: it did worse).
+`RetractReachGesture` is the same gesture on retract_reach's working spot, then
+the retraction and the reach.
 
-Measured on clear_area (seeds 0 to 23, then 100 to 147): the gesture of the
-previous release (the top loop, 12 cm beyond the target's nearest edge that is
-not uphill) 67 % on the first; the taut-rope choice with a 3 cm clearance cap
-71 %; with carries that stretch refused and the rise, 75 %; with the 6 cm cap,
-100 % and 90 %; the 8 cm cap (the default) 96 % on the second. The pictures
-showed why: a loop carried away from where its rope comes from lies taut across
-the target and springs back when let go.
-
-The last printed line is ``uncovered: F``, F the final uncovered fraction.
+Why the taut-rope choice: a loop carried away from where its rope comes from lies
+taut across the target and springs back when let go. How often the gesture
+succeeds is measured, not written here: docs/tasks/rates.json
+(python python/tools/task_rates.py).
 """
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
-
 import numpy as np
 
-from viscera import cli
 from viscera.tasks import carry, scene
 from viscera.tasks.base import GRID, shaft_within_reach
-from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Tools
+from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Phase, Tools
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
@@ -56,12 +47,9 @@ LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered
 PLAN_POINTS = 100
 
 
-@dataclasses.dataclass
-class Phase:
-    name: str
-    duration: float                       # s, at least
-    grasper: ToolTrajectory
-    retractor: ToolTrajectory
+def _phase(name: str, duration: float, grasper: ToolTrajectory, retractor: ToolTrajectory) -> Phase:
+    """A phase of both tools' moves (viscera.tasks.policies.Phase)."""
+    return Phase(name, duration, {"grasper": grasper, "retractor": retractor})
 
 
 class ClearingGesture:
@@ -77,7 +65,7 @@ class ClearingGesture:
         physics = env.physics
         self.control_timestep = env.control_timestep()
         # s: then the tools leave, whatever remains (default: 6 s before the episode's time limit)
-        limit = float(getattr(env, "_step_limit", 1500)) * env.control_timestep()  # dm_control's, in steps
+        limit = env.time_limit_s  # viscera.tasks.base.Environment's
         self.withdraw_at = withdraw_at if withdraw_at is not None else (limit - 6.0 if np.isfinite(limit) else 24.0)
         self.good_enough = good_enough  # uncovered fraction at which the grasper leaves
         self.resume_below = resume_below  # ... and below which, withdrawn, it comes back for more
@@ -95,8 +83,7 @@ class ClearingGesture:
         self.mesentery_reach = scene.MESENTERY_LENGTH[0]
         self.root_line = np.array(physics.intestine().config["mesentery_root"].split(), dtype=float).reshape(2, 3)
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
-        # and they slide back (measured with the first gesture, on the shipped scene: lifted 4, 6
-        # and 8 cm, 9 cm cleared the target every time, 11 cm in one of three, 13 cm never)
+        # and they slide back
         self.carry_height = carry_height
         self.tools = Tools(env)  # trocars, working points, actuators
         self.coordinates = self.tools.coordinates
@@ -152,20 +139,20 @@ class ClearingGesture:
         g, r = "grasper", "retractor"
         hold_r = self._hold(r)
         self.phases += [
-            Phase("approach", 0.9, self._move(g, self.coordinates(g, above, JAW_OPEN_DEG), 0.8), hold_r),
-            Phase("descend", 0.5, self._move(g, self.coordinates(g, grip, JAW_OPEN_DEG), 0.4), hold_r),
-            Phase("close", 0.3, self._move(g, self.coordinates(g, grip, JAW_CLOSED_DEG), 0.25), hold_r),
-            Phase("lift", 0.6, self._move(g, self.coordinates(g, lifted, JAW_CLOSED_DEG), 0.5), hold_r),
-            Phase("carry", 0.9, self._move(g, self.coordinates(g, carried, JAW_CLOSED_DEG), 0.8), hold_r),
-            Phase("lower", 0.4, self._move(g, self.coordinates(g, lowered, JAW_CLOSED_DEG), 0.3), hold_r),
+            _phase("approach", 0.9, self._move(g, self.coordinates(g, above, JAW_OPEN_DEG), 0.8), hold_r),
+            _phase("descend", 0.5, self._move(g, self.coordinates(g, grip, JAW_OPEN_DEG), 0.4), hold_r),
+            _phase("close", 0.3, self._move(g, self.coordinates(g, grip, JAW_CLOSED_DEG), 0.25), hold_r),
+            _phase("lift", 0.6, self._move(g, self.coordinates(g, lifted, JAW_CLOSED_DEG), 0.5), hold_r),
+            _phase("carry", 0.9, self._move(g, self.coordinates(g, carried, JAW_CLOSED_DEG), 0.8), hold_r),
+            _phase("lower", 0.4, self._move(g, self.coordinates(g, lowered, JAW_CLOSED_DEG), 0.3), hold_r),
         ]
         if self.press:  # the retractor leaves the last laid loop, comes over this one and presses it down
             self._press_at(drop_xy + side * self.press_beyond, self.press_height)
             hold_r = self._hold(r)
         self.phases.append(
-            Phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
+            _phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
         if self.rise:
-            self.phases.append(Phase("rise", 0.5, self._move(
+            self.phases.append(_phase("rise", 0.5, self._move(
                 g, self.coordinates(g, np.append(drop_xy, self.rise), JAW_OPEN_DEG), 0.45), self._hold(r)))
         self.cycles += 1
 
@@ -175,12 +162,12 @@ class ClearingGesture:
         g, r = "grasper", "retractor"
         hold_g = self._hold(g)
         if self.pressing is not None:
-            self.phases.append(Phase("retractor up", 0.4, hold_g, self._move(
+            self.phases.append(_phase("retractor up", 0.4, hold_g, self._move(
                 r, self.coordinates(r, np.append(self.pressing, 0.07), roll=self.command[r]["roll"]), 0.35)))
         self.phases += [
-            Phase("retractor over", 0.6, hold_g, self._move(r, self.coordinates(r, np.append(point, 0.07), roll=roll),
+            _phase("retractor over", 0.6, hold_g, self._move(r, self.coordinates(r, np.append(point, 0.07), roll=roll),
                                                             0.55)),
-            Phase("retractor press", 0.4, hold_g, self._move(r, self.coordinates(r, np.append(point, height),
+            _phase("retractor press", 0.4, hold_g, self._move(r, self.coordinates(r, np.append(point, height),
                                                                                  roll=roll), 0.35))]
         self.pressing = np.asarray(point, dtype=float)
 
@@ -256,7 +243,7 @@ class ClearingGesture:
         up = dict(self.command[g], depth=0.0, jaw=JAW_OPEN_DEG)  # open: a success leaves the jaws open
         keep = self.press and self.pressing is not None and self.time + self.cycle_duration <= self.withdraw_at
         retractor = self._hold(r) if keep else self._move(r, dict(self.command[r], depth=0.0), 1.2)
-        self.phases.append(Phase("withdraw", 1.5, self._move(g, up, 1.2), retractor))
+        self.phases.append(_phase("withdraw", 1.5, self._move(g, up, 1.2), retractor))
         self.done = True
 
     def _over_covered_cells(self, points: np.ndarray, coverage: np.ndarray) -> np.ndarray:
@@ -281,16 +268,16 @@ class ClearingGesture:
                 if self.done and (self._stay(time_step.observation)
                                   or self.time + self.cycle_duration > self.withdraw_at):
                     # rest withdrawn, looking again every half second
-                    self.phases.append(Phase("rest", 0.5, self._hold("grasper"), self._hold("retractor")))
+                    self.phases.append(_phase("rest", 0.5, self._hold("grasper"), self._hold("retractor")))
                 else:  # loops came back over the target: another cycle
                     self.done = False
                     self._plan(axis, coverage)
             # a move the velocity limits stretched finishes before the next phase starts from its goal
             first = self.phases[0]
-            first.duration = max(first.duration, first.grasper.duration, first.retractor.duration)
-        phase = self.phases[0]
-        action = self.tools.action({"grasper": phase.grasper(self.phase_time),
-                                    "retractor": phase.retractor(self.phase_time)})
+            first.duration = max(first.duration, first.moves["grasper"].duration, first.moves["retractor"].duration)
+        moves = self.phases[0].moves
+        action = self.tools.action({"grasper": moves["grasper"](self.phase_time),
+                                    "retractor": moves["retractor"](self.phase_time)})
         self.phase_time += self.control_timestep
         self.time += self.control_timestep
         return action
@@ -304,59 +291,7 @@ class ClearingGesture:
         return self.phases[0].name if self.phases else "-"
 
 
-def run(seed: int = 0, duration: float = 30.0, quiet: bool = False, png_before: str | None = None,
-        png_after: str | None = None) -> float:
-    """Run the gesture on a clear_area episode; returns the final uncovered fraction."""
-    from tqdm import tqdm
-
-    import viscera.tasks
-
-    # the whole gesture plays out, withdrawal included: success does not cut it short
-    env = viscera.tasks.load("clear_area", seed=seed, time_limit=duration, end_on_success=False)
-    policy = ClearingGesture(env)
-    time_step = env.reset()
-    if png_before:
-        _render(env.physics, png_before)
-    steps = int(round(duration / env.control_timestep()))
-    reward = 0.0
-    with tqdm(total=steps, desc="clearing", unit="step", disable=quiet) as bar:
-        while not time_step.last():
-            time_step = env.step(policy(time_step))
-            reward = float(time_step.reward)
-            bar.set_postfix(phase=policy.phase, uncovered=f"{reward:.2f}")
-            bar.update(1)
-    if png_after:
-        _render(env.physics, png_after)
-    gut = env.physics.intestine()
-    print(f"cycles {policy.cycles}, simulated {env.physics.data.time:.2f} s, divergences "
-          f"{gut.divergence_count(env.physics.data.ptr)}")
-    print(f"uncovered: {reward:.3f}")
-    return reward
-
-
-def _render(physics, path: str) -> None:
-    cli.save_png(path, physics.render(height=480, width=640, camera_id="top"))
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m viscera.tasks.gesture", description=__doc__.split("\n")[0])
-    parser.add_argument("--seed", type=cli.natural_int, default=0,
-                        help="the task's seed: the episode's bowel, tissue, tilt and target (default 0)")
-    parser.add_argument("--duration", type=cli.duration, default=30.0,
-                        help="episode length (simulated s, default 30)")
-    parser.add_argument("--png-before", type=cli.output_file(".png"),
-                        help="picture of the cavity at the start (top camera)")
-    parser.add_argument("--png-after", type=cli.output_file(".png"), help="picture of the cavity at the end")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
-    run(args.seed, args.duration, args.quiet, args.png_before, args.png_after)
-
-
-if __name__ == "__main__":
-    main()
-
-
-class RetractReach(ClearingGesture):
+class RetractReachGesture(ClearingGesture):
     """Policy for retract_reach: the clearing gesture on the working spot (the target's sampling
     points within `spot` m of its centre: by default the four around it), each loop over it
     carried where the taut-rope prediction leaves the spot clear and laid, the retractor pressing
@@ -365,18 +300,9 @@ class RetractReach(ClearingGesture):
     target's centre, jaws open (closing jaws would take hold of a loop on the way), and stays
     while the centre is uncovered, the retractor presses and the grasper pushes on nothing
     (`target_coverage`, `tool_forces`); else it clears the spot again, and if the grasper pushed
-    on a loop, the retractor first holds down the loop nearest its shaft.
-
-    Measured on seeds 0 to 23 and 100 to 147: the previous release's script (loops 6 cm across
-    the bowel beyond the spot) 69 % on seeds 0 to 15; the taut-rope choice 79 % on seeds 0 to
-    23 (a clearance cap of 3, 4, 5, 8 and 12 cm: 67, 67, 88, 79 and 79 %); without the rise
-    after each release, 67 %; a 12 cm carry height, 58 %. It failed where the spot was clear from
-    the start: the retractor had pressed nothing, and the reach waited for it; holding the
-    nearest loop then gave 83 % (5 cm cap) and 88 % (8 cm, the default) on seeds 100 to 147.
-    Moving the retractor to that loop before every reach, off the loop it pressed: 65 % there
-    (the pressed loop came back); holding it 6 mm beyond its axis, 54 %; reaching 6 mm higher,
-    83 %. When a reach pushed on a loop by the shaft, holding the loop nearest the shaft instead
-    of reaching again the same way: 90 % there, 88 % on seeds 0 to 23 (83 % without)."""
+    on a loop, the retractor first holds down the loop nearest its shaft (reaching again the
+    same way pushed on it again). Where the spot is clear from the start, the retractor holds
+    the nearest loop at once: waiting for it to press something, the reach never came."""
 
     def __init__(self, env, spot: float = 0.004, centre_radius: float = 0.004, press_force: float = 0.05,
                  push_force: float = 0.5, reach_height: float = 0.002, retract_gap: float = 0.015, **kwargs):
@@ -439,10 +365,10 @@ class RetractReach(ClearingGesture):
         elif np.linalg.norm(forces[6:9]) < self.press_force:
             self._retract(axis)
         self.phases += [
-            Phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),
+            _phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),
                                                   jaw=JAW_OPEN_DEG), 0.45), self._hold("retractor")),
-            Phase("reach over", 0.8, self._move(g, self.coordinates(g, centre + (0, 0, 0.05), JAW_OPEN_DEG), 0.7),
+            _phase("reach over", 0.8, self._move(g, self.coordinates(g, centre + (0, 0, 0.05), JAW_OPEN_DEG), 0.7),
                   self._hold("retractor")),
-            Phase("reach", 0.8, self._move(g, self.coordinates(g, centre, JAW_OPEN_DEG), 0.7),
+            _phase("reach", 0.8, self._move(g, self.coordinates(g, centre, JAW_OPEN_DEG), 0.7),
                   self._hold("retractor"))]
         self.done = True

@@ -16,30 +16,34 @@ The first move of most bowel manipulation: take hold of the loop the surgeon wan
 - Success: the grasper holds a point of the band (within 1 cm of it) at least 5 cm above the
   posterior wall, for 1 s without slipping (a slip lets go: the clock starts again). The episode
   ends on success, or after 15 s.
+- Scripted policy: viscera.tasks.policies.GraspLiftPolicy, closed loop from the observations.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from dm_control.rl import control
 
 from viscera.tasks import base
+from viscera.tasks.base import Physics
+from viscera.tasks.policies import GraspLiftPolicy
 from viscera.tasks.scene import Tool
 
 BAND_M = 0.05         # the band's length along the axis
 LIFT_M = 0.05         # above the posterior wall
 SLACK_M = 0.01        # a hold this close to the band counts
 BAND_POINTS = 5
-Physics = base.Physics
 
 
+@base.register("grasp_lift", "viscera/GraspLift-v0")
 class GraspLift(base.BowelTask):
     """Hold the marked band at least 5 cm up for 1 s."""
 
+    CRITERION = "the marked band held 5 cm above the posterior wall for 1 s"
     TOOLS = (Tool("grasper", "grasper", "right"),)
     HOLD_S = 1.0
     HAS_TARGET = False
     TIME_LIMIT_S = 15.0
+    POLICY = GraspLiftPolicy
 
     def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):
         super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
@@ -87,16 +91,4 @@ class GraspLift(base.BowelTask):
         return 0.5 * near + (0.5 * min(1.0, max(0.0, height) / LIFT_M) if height is not None else 0.0)
 
 
-def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
-         axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True) -> control.Environment:
-    """The grasp_lift environment (time limit, default 15, and control period in s)."""
-    task = GraspLift(random=np.random.RandomState(seed), axis_samples=base.checked_axis_samples(axis_samples),
-                     randomize=randomize)
-    return base.make(task, time_limit, control_timestep)
-
-
-def scripted_policy(env):
-    """Closed loop from the observations: over the band's highest point, down, close, lift to 9 cm,
-    hold; if the jaws close on anything else (or nothing), open, rise and try the next point."""
-    from viscera.tasks.policies import GraspLiftPolicy
-    return GraspLiftPolicy(env)
+load = base.loader(GraspLift)

@@ -16,32 +16,33 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
   retractor uncovered, it does not push its way through the loops; a loop resting against its
   shaft is allowed), while the retractor presses on the bowel (its force sensor reads at least
   0.05 N). The episode ends on success, or after 60 s.
+- Scripted policy: viscera.tasks.gesture.RetractReachGesture: the clearing gesture on the working
+  spot, then the retractor presses the laid loop and the grasper reaches.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from dm_control.rl import control
 
 from viscera.tasks import base
+from viscera.tasks.base import Physics
+from viscera.tasks.gesture import RetractReachGesture
 from viscera.tasks.scene import Tool
 
 REACH_M = 0.01        # tip to the target's centre
 PRESS_N = 0.05        # the retractor's force sensor: it presses on the bowel
 PUSH_N = 0.5          # the grasper's: it reaches the exposed wall, it does not push through loops
-Physics = base.Physics
 
 
+@base.register("retract_reach", "viscera/RetractReach-v0")
 class RetractReach(base.BowelTask):
     """Retractor holds the loops off, grasper touches the target's centre for 0.5 s."""
 
+    CRITERION = "the loops held back and the grasper at the target's centre"
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("retractor", "retractor", "left"))
     HOLD_S = 0.5
     TIME_LIMIT_S = 60.0
-
-    def draw(self, physics: Physics) -> None:
-        if self.randomize:
-            self.move_target(physics)
+    POLICY = RetractReachGesture
 
     def tip_distance(self, physics: Physics) -> float:
         return float(np.linalg.norm(physics.working_point("grasper") - physics.target()[:3]))
@@ -49,9 +50,8 @@ class RetractReach(base.BowelTask):
     def centre_uncovered(self, physics: Physics) -> bool:
         """No tube over the target's centre: every axis point farther than the tube's radius from
         it, horizontally (a loop lifted above it covers it too)."""
-        gut = physics.intestine()
-        axis = gut.axis_points(physics.data.ptr, 4 * gut.sphere_count)[:, :2]
-        return float(np.min(np.linalg.norm(axis - physics.target()[:2], axis=1))) > gut.radius
+        axis = self.measurements(physics).dense_axis[:, :2]
+        return float(np.min(np.linalg.norm(axis - physics.target()[:2], axis=1))) > physics.intestine().radius
 
     def condition(self, physics: Physics) -> bool:
         forces = physics.named.data.sensordata
@@ -60,22 +60,12 @@ class RetractReach(base.BowelTask):
                 np.linalg.norm(forces["grasper_force"][:3]) <= PUSH_N and self.centre_uncovered(physics))
 
     def task_observations(self, physics: Physics) -> dict:
-        return {"target": physics.target(), "target_coverage": physics.coverage(),
+        return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy(),
                 "grasper_tip": physics.working_point("grasper")}
 
     def get_reward(self, physics: Physics) -> float:
-        return 0.5 * physics.uncovered_fraction() + 0.5 * float(np.exp(-self.tip_distance(physics) / 0.02))
+        uncovered = self.measurements(physics).uncovered_fraction
+        return 0.5 * uncovered + 0.5 * float(np.exp(-self.tip_distance(physics) / 0.02))
 
 
-def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
-         axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True) -> control.Environment:
-    """The retract_reach environment (time limit, default 60, and control period in s)."""
-    task = RetractReach(random=np.random.RandomState(seed), axis_samples=base.checked_axis_samples(axis_samples),
-                        randomize=randomize)
-    return base.make(task, time_limit, control_timestep)
-
-
-def scripted_policy(env):
-    """Clear the working spot, press the laid loop, then reach (viscera.tasks.gesture.RetractReach)."""
-    from viscera.tasks.gesture import RetractReach
-    return RetractReach(env)
+load = base.loader(RetractReach)

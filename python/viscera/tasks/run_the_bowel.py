@@ -20,29 +20,33 @@ trocar, in place of the retractor).
   run is dropped and the episode ends (discount 0).
 - Success: at least 30 cm of bowel has passed between the jaws (the advance: the farthest counted
   hold from the mark) with the bowel held throughout. The episode ends on success, a drop, or after 40 s.
+- Scripted policy: viscera.tasks.policies.RunTheBowelPolicy, hand over hand from the observations.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from dm_control.rl import control
 
 from viscera.tasks import base
+from viscera.tasks.base import Physics
+from viscera.tasks.policies import RunTheBowelPolicy
 from viscera.tasks.scene import Tool
 
 MARK_M = 0.03        # the start mark's length along the axis
 START_SLACK_M = 0.03  # a first hold this close to the mark begins the run
 ADVANCE_M = 0.30
 HANDOVER_M = 0.10    # a new hold counts within this of a counted one (the jaws hand over, they do not jump)
-Physics = base.Physics
 
 
+@base.register("run_the_bowel", "viscera/RunTheBowel-v0")
 class RunTheBowel(base.BowelTask):
     """Advance 30 cm along the bowel, hand over hand, never letting go."""
 
+    CRITERION = "30 cm of bowel run hand over hand without letting go"
     TOOLS = (Tool("grasper", "grasper", "right"), Tool("grasper_left", "grasper", "left"))
     HAS_TARGET = False
     TIME_LIMIT_S = 40.0
+    POLICY = RunTheBowelPolicy
 
     def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):
         super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
@@ -108,15 +112,4 @@ class RunTheBowel(base.BowelTask):
         return min(1.0, self.advance / ADVANCE_M) if not self.dropped else 0.0
 
 
-def load(seed: int | None = None, time_limit: float | None = None, control_timestep: float = 0.02,
-         axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True) -> control.Environment:
-    """The run_the_bowel environment (time limit, default 40, and control period in s)."""
-    task = RunTheBowel(random=np.random.RandomState(seed), axis_samples=base.checked_axis_samples(axis_samples),
-                       randomize=randomize)
-    return base.make(task, time_limit, control_timestep)
-
-
-def scripted_policy(env):
-    """Hand over hand from the observations (viscera.tasks.policies.RunTheBowelPolicy)."""
-    from viscera.tasks.policies import RunTheBowelPolicy
-    return RunTheBowelPolicy(env)
+load = base.loader(RunTheBowel)

@@ -160,7 +160,7 @@ class Session:
         task = self.env.task
         if task.success(self.physics):
             return "success"
-        return "failure" if getattr(task, "_failed", False) else "time limit"
+        return "failure" if task.failed else "time limit"
 
     def run(self, duration_s: float | None = None, progress: bool = False,
             on_frame: Callable[["Session"], bool] | None = None, lock=None) -> SessionResult:
