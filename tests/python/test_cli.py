@@ -184,8 +184,10 @@ def _start(tmp_path, *args) -> tuple[subprocess.Popen, pathlib.Path, pathlib.Pat
     """`python -m viscera run *args` in the background, its output going to files."""
     out, err = tmp_path / "stdout", tmp_path / "stderr"
     with open(out, "w") as stdout, open(err, "w") as stderr:
+        # Ctrl-C as a person's terminal delivers it: a runner that started us in the background
+        # with SIGINT ignored (a non-interactive shell's `&`) must not pass that on to the command
         process = subprocess.Popen([sys.executable, "-m", "viscera", "run", *map(str, args)], stdout=stdout,
-                                   stderr=stderr)
+                                   stderr=stderr, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     return process, out, err
 
 
