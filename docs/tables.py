@@ -10,7 +10,8 @@ docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/c
 (python python/tools/bench_cavity.py --json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
-python/tools/task_rates.py --out docs/tasks/rates.json), docs/rehearsal/band.json (python
+python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json likewise),
+docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/rehearsal/band.json (python
 python/tools/reference_band.py) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
@@ -143,12 +144,55 @@ def task_rates() -> str:
         steps_per_s = scripted["median_simulated_s"] / data["control_timestep_s"] / scripted["median_wall_s_per_episode"]
         cells.append(f"{scripted['median_wall_s_per_episode']:.1f} s, {scripted['median_simulated_s']:.1f} s "
                      f"simulated, {steps_per_s:.0f}")
+        cells.append(", ".join(_recovered(table[p]) for p in ("scripted", "random", "nothing")))
         rows.append(cells)
     seeds = data["seeds"]
     return _rows(["task", f"scripted policy (seeds {seeds['scripted'][0]} to {seeds['scripted'][1]})",
                   f"uniform random actions (seeds {seeds['random'][0]} to {seeds['random'][1]})",
                   f"doing nothing (seeds {seeds['nothing'][0]} to {seeds['nothing'][1]})",
-                  "scripted: median wall and simulated time per episode, env steps/s"], rows)
+                  "scripted: median wall and simulated time per episode, env steps/s",
+                  "episodes with a divergence recovery: scripted, random, nothing"], rows)
+
+
+def _recovered(row: dict) -> str:
+    """Episodes of a rates row whose intestine recovered from a diverged step, and their recoveries."""
+    if "recoveries" not in row:
+        return "-"  # measured before recoveries were counted
+    counts = [r for r in row["recoveries"] if r > 0]
+    return f"{len(counts)} ({sum(counts)})" if counts else "0"
+
+
+def random_stability() -> str:
+    """From docs/tasks/random_stability.json (python python/tools/task_rates.py --policies random
+    --first-seed 3000 --max-steps 300 --out docs/tasks/random_stability.json)."""
+    data = _json("tasks/random_stability.json")
+    rows = []
+    for task, table in data["rates"].items():
+        row = table["random"]
+        rows.append([f"`{task}`", str(row["episodes"]), str(row["min_control_steps"]),
+                     str(sum(1 for r in row["recoveries"] if r > 0)), str(row["recoveries_total"]),
+                     str(row["divergences_total"])])
+    seeds = data["seeds"]["random"]
+    return _rows(["task", f"episodes (seeds {seeds[0]} to {seeds[1]})", "control steps each", "episodes with a recovery",
+                  "recoveries", "divergences"], rows)
+
+
+def contact_stability() -> str:
+    """From docs/validation/contact_stability.json (python python/tools/contact_stability.py)."""
+    data = _json("validation/contact_stability.json")
+    integrators = list(dict.fromkeys(r["integrator"] for r in data["rows"]))
+    corners = list(dict.fromkeys(r["tissue"] for r in data["rows"]))
+    cell = {(r["integrator"], r["tissue"]): r for r in data["rows"]}
+    out = []
+    for corner in corners:
+        row = [corner.replace("_", ", ")]
+        for integrator in integrators:
+            r = cell[(integrator, corner)]
+            fewest = r["fewest_stable_substeps"]
+            row.append(f"{r['default_substeps']} / " + (str(fewest) if fewest else f"> {data['most_substeps_tried']}")
+                       + ("" if r["default_recoveries"] == 0 else f" ({r['default_recoveries']} recoveries)"))
+        out.append(row)
+    return _rows(["tissue (mass, springs, grip)"] + [NAMES.get(i, i) for i in integrators], out)
 
 
 def task_success() -> str:

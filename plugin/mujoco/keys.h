@@ -58,7 +58,9 @@
   X(contact_stiffness, VSC_KEY_KIND_POSITIVE, FIELD(rod.contact_stiffness), 0, 0, "N/m", CORE, \
     "penalty stiffness of each contact (normal, and the tangential stick spring)") \
   X(contact_damping, VSC_KEY_KIND_NONNEGATIVE, FIELD(rod.contact_damping), 0, 0, "N s/m", CORE, \
-    "penalty damping, normal and tangential (contacts push, never pull)") \
+    "penalty damping, normal and tangential (contacts push, never pull); where contacts pile up on a few " \
+    "spheres past its explicit limit (gamma h < 2 per control point, see [integrators](integrators.md)) " \
+    "their damping is scaled down to it") \
   X(collision_spheres, VSC_KEY_KIND_COUNT, FIELD(rod.collision_sphere_count), 2, VSC_MAX_COLLISION_SPHERES, "count", \
     DERIVED("ceil(length / radius) + 1 (321)"), \
     "spheres uniform in abscissa, one radius apart") \

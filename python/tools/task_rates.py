@@ -1,8 +1,10 @@
 """Success rates of the task suite: each task's scripted policy, uniform random actions and doing
-nothing, over seeds, with the wall time per episode; written to docs/tasks/rates.json.
+nothing, over seeds, with the wall time and the intestine's divergence recoveries per episode;
+written to docs/tasks/rates.json.
 
     python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
-        [--policies scripted random nothing] [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
+        [--policies scripted random nothing] [--max-steps N] [--merge docs/tasks/rates.json]
+        [--out docs/tasks/rates.json]
 
 The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
 and doing nothing over 20 (random 90 s episodes are slow), from two runs:
@@ -10,6 +12,12 @@ and doing nothing over 20 (random 90 s episodes are slow), from two runs:
     python python/tools/task_rates.py --policies scripted --out docs/tasks/rates.json
     python python/tools/task_rates.py --seeds 20 --policies random nothing --merge docs/tasks/rates.json \
         --out docs/tasks/rates.json
+
+and the stability check of random actions (a learning agent's first hours: 50 unseen seeds per
+task, 300 control steps each, every recovery counted) into docs/tasks/random_stability.json:
+
+    python python/tools/task_rates.py --policies random --first-seed 3000 --max-steps 300 \
+        --out docs/tasks/random_stability.json
 
 The seeds start at 1000 by default: the policies were tuned on seeds below 200, so these are seeds
 they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
@@ -29,6 +37,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
+import viscera
 import viscera.tasks
 from viscera import cli
 
@@ -36,15 +45,18 @@ POLICIES = ("scripted", "random", "nothing")
 OUT = pathlib.Path("docs") / "tasks" / "rates.json"
 
 
-def episode(task: str, seed: int, policy: str) -> dict:
-    """One whole episode of `task` from `seed` under `policy`: success, simulated and wall seconds."""
+def episode(task: str, seed: int, policy: str, max_steps: int | None = None) -> dict:
+    """One episode of `task` from `seed` under `policy` (whole, or its first `max_steps` control
+    steps): success, simulated and wall seconds, the intestine's recoveries and divergences."""
     env = viscera.tasks.load(task, seed=seed)
     spec = env.action_spec()
     rng = np.random.RandomState(seed)
     act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
     start = time.perf_counter()
     step = env.reset()
-    while not step.last():
+    steps = 0
+    while not step.last() and (max_steps is None or steps < max_steps):
+        steps += 1
         if policy == "scripted":
             action = act(step)
         elif policy == "random":
@@ -52,14 +64,18 @@ def episode(task: str, seed: int, policy: str) -> dict:
         else:
             action = np.zeros(spec.shape)
         step = env.step(action)
+    gut = viscera.intestine(env.physics.model.ptr)
+    data = env.physics.data.ptr
     return {"task": task, "seed": seed, "policy": policy, "success": bool(env.task.success(env.physics)),
-            "simulated_s": float(env.physics.data.time), "wall_s": time.perf_counter() - start}
+            "simulated_s": float(env.physics.data.time), "wall_s": time.perf_counter() - start,
+            "control_steps": steps, "recoveries": gut.recovery_count(data), "divergences": gut.divergence_count(data)}
 
 
-def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False) -> dict:
+def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False,
+          max_steps: int | None = None) -> dict:
     """Per task and policy: the success rate over `seeds`, the seeds that succeeded, the median
-    wall time per episode."""
-    jobs = [(task, seed, policy) for task in tasks for policy in policies for seed in seeds]
+    wall time per episode, the recoveries and divergences (each episode's, and their total)."""
+    jobs = [(task, seed, policy, max_steps) for task in tasks for policy in policies for seed in seeds]
     with concurrent.futures.ProcessPoolExecutor(workers or os.cpu_count()) as pool:
         rows = list(tqdm(pool.map(episode, *zip(*jobs)), total=len(jobs), desc="episodes", disable=quiet))
     out: dict = {}
@@ -70,7 +86,10 @@ def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bo
                 "episodes": len(mine), "success_rate": float(np.mean([r["success"] for r in mine])),
                 "succeeded_seeds": [r["seed"] for r in mine if r["success"]],
                 "median_wall_s_per_episode": float(np.median([r["wall_s"] for r in mine])),
-                "median_simulated_s": float(np.median([r["simulated_s"] for r in mine]))}
+                "median_simulated_s": float(np.median([r["simulated_s"] for r in mine])),
+                "min_control_steps": min(r["control_steps"] for r in mine),
+                "recoveries": [r["recoveries"] for r in mine], "recoveries_total": sum(r["recoveries"] for r in mine),
+                "divergences_total": sum(r["divergences"] for r in mine)}
     return out
 
 
@@ -83,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="tasks to measure (default all)")
     parser.add_argument("--policies", nargs="+", choices=POLICIES, default=list(POLICIES),
                         help="policies to measure (default all)")
+    parser.add_argument("--max-steps", type=cli.positive_int,
+                        help="stop each episode after this many control steps (default: whole episodes)")
     parser.add_argument("--merge", type=cli.input_file,
                         help="a rates JSON whose other policies and tasks are kept beside this run's")
     parser.add_argument("--out", type=cli.output_file(".json"), help=f"where to write the rates (e.g. {OUT})")
@@ -90,7 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     result = {"control_timestep_s": 0.02, "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
-              "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet)}
+              "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet, max_steps=args.max_steps)}
+    if args.max_steps:
+        result["max_control_steps"] = args.max_steps
     if args.merge:  # this run's policies over the merged file's
         merged = json.loads(pathlib.Path(args.merge).read_text())
         merged["seeds"].update(result["seeds"])
@@ -99,7 +122,8 @@ def main(argv: list[str] | None = None) -> int:
         result = merged
     for task, table in result["rates"].items():
         print(task + ": " + ", ".join(f"{policy} {row['success_rate']:.0%} ({row['median_wall_s_per_episode']:.1f} s "
-                                      f"wall per episode)" for policy, row in table.items()))
+                                      f"wall per episode, {row.get('recoveries_total', 0)} recoveries)"
+                                      for policy, row in table.items()))
     if args.out:
         pathlib.Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.out}")

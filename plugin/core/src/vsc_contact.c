@@ -1,15 +1,32 @@
-// Penalty contacts (see viscera/vsc_contact.h): the narrow phase over the
-// candidate lists (vsc_contact_lists.c), each contact's normal push and
-// friction, the touch records friction reads, and the penalty's potential energy.
+// Penalty contacts (see viscera/vsc_contact.h), in two phases: the narrow phase
+// over the candidate lists (vsc_contact_lists.c) finds every contact and its
+// spheres' load; the damping is limited where that load passes its explicit
+// limit (vsc_contact_load.h); then each contact's normal push and friction, the
+// touch records friction reads. And the penalty's potential energy.
 #include "vsc_contact.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "vsc_capsule.h"
 #include "vsc_contact_lists.h"
+#include "vsc_contact_load.h"
 #include "vsc_place.h"
 #include "vsc_touch.h"
+
+// A contact the narrow phase found, before its force: the pass finds them all
+// first, so that their damping can be limited where it adds up (vsc_contact_load.h),
+// then pushes them in the order found.
+typedef struct found_contact {
+  int a, b;             // self: segments a < b; rigid: sphere a, geom b
+  int rigid;            // 1: sphere a against geom b
+  double s, t;          // self: closest points' parameters on segments a and b
+  double depth;         // m
+  double n[3];          // unit normal, towards a
+  double relative[3];   // a's velocity relative to b's at the contact (m/s)
+  double point[3];      // rigid: the contact point on the geom's surface (m)
+} found_contact;
 
 typedef struct pass {
   const vsc_step_context* context;
@@ -19,9 +36,10 @@ typedef struct pass {
   int contacts;
   int geom;                // index of the geom being queried
   const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's (NULL: not used)
+  const double* damping_scale;  // per sphere, the factor on the contact damping (NULL: none)
 } pass;
 
-static void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
+static inline __attribute__((always_inline)) void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
   // weights and force in locals: the stores to Q then force no reloads
   const vsc_basis* b = &rod->sphere_basis[sphere];
   double* out = Q + 3 * b->first;
@@ -49,9 +67,9 @@ static inline double push_share(double depth, double radius, double separation) 
 // Normal force, plus the friction force of a contact with relative velocity
 // `relative` (m/s); `elongation` is its stick spring (NULL: none). Writes the
 // total force into f and the tangential velocity into tangent.
-static double contact_force(const vsc_rod* rod, double depth, const double n[3], const double relative[3],
-                            double mu, const double* elongation, double f[3], double tangent[3]) {
-  double k = rod->def.contact_stiffness, c = rod->def.contact_damping;
+static inline __attribute__((always_inline)) double contact_force(const vsc_rod* rod, double depth, const double n[3], const double relative[3],
+                            double mu, double c, const double* elongation, double f[3], double tangent[3]) {
+  double k = rod->def.contact_stiffness;
   double separation = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
   double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
   double normal = push_share(depth, rod->def.radius, separation) * k * spring - c * separation;
@@ -71,6 +89,46 @@ static double contact_force(const vsc_rod* rod, double depth, const double n[3],
   return normal;
 }
 
+// Room for `more` found contacts; 0 if the buffer cannot grow.
+static int reserve(vsc_rod* rod, int more) {
+  if (rod->found_count + more <= rod->found_capacity) return 1;
+  int capacity = rod->found_capacity > 0 ? rod->found_capacity : 256;
+  while (capacity < rod->found_count + more) capacity *= 2;
+  found_contact* grown = (found_contact*)realloc(rod->found, sizeof(found_contact) * (size_t)capacity);
+  if (!grown) return 0;
+  rod->found = grown;
+  rod->found_capacity = capacity;
+  return 1;
+}
+
+static void push(pass* p, const found_contact* found);
+
+// Keep a found contact, built in `found`, for the push, with its spheres' load;
+// with no room, push it at once, unlimited.
+static void keep(pass* p, found_contact* found) {
+  vsc_rod* rod = p->rod;
+  if (found->rigid) {
+    vsc_contact_load_add(rod, found->a, rod->def.contact_stiffness);
+  } else {
+    double twice_k = 2.0 * rod->def.contact_stiffness;
+    vsc_contact_load_add(rod, found->a, twice_k * (1.0 - found->s));
+    vsc_contact_load_add(rod, found->a + 1, twice_k * found->s);
+    vsc_contact_load_add(rod, found->b, twice_k * (1.0 - found->t));
+    vsc_contact_load_add(rod, found->b + 1, twice_k * found->t);
+  }
+  if (rod->found && found == (found_contact*)rod->found + rod->found_count)
+    ++rod->found_count;
+  else
+    push(p, found);
+}
+
+// Where the next found contact is built: the buffer's next slot, or `spare`.
+static found_contact* next_slot(pass* p, found_contact* spare) {
+  vsc_rod* rod = p->rod;
+  return rod->found_count < rod->found_capacity || reserve(rod, 1) ? (found_contact*)rod->found + rod->found_count
+                                                                   : spare;
+}
+
 static void self_pair(void* context, int earlier, int item) {
   pass* p = (pass*)context;
   vsc_rod* rod = p->rod;
@@ -86,34 +144,27 @@ static void self_pair(void* context, int earlier, int item) {
     double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
     if (gap2 >= reach * reach) return;
   }
-  double s, t, vp[3], vq[3], d[3];
+  double s, t, d[3];
   double distance = vsc_segment_gap(x, a, b, &s, &t, d);
   double depth = 2.0 * rod->def.radius - distance;
   if (!(depth > 0.0)) return;
-  double n[3] = {0.0, 0.0, 1.0};  // crossing axes: any direction separates them
+  found_contact spare, *found = next_slot(p, &spare);
+  found->a = a;
+  found->b = b;
+  found->rigid = 0;
+  found->s = s;
+  found->t = t;
+  found->depth = depth;
+  found->n[0] = found->n[1] = 0.0;  // crossing axes: any direction separates them
+  found->n[2] = 1.0;
   if (distance > 0.0)
-    for (int c = 0; c < 3; ++c) n[c] = d[c] / distance;
+    for (int c = 0; c < 3; ++c) found->n[c] = d[c] / distance;
   for (int c = 0; c < 3; ++c) {
-    vp[c] = (1.0 - s) * v[3 * a + c] + s * v[3 * a + 3 + c];
-    vq[c] = (1.0 - t) * v[3 * b + c] + t * v[3 * b + 3 + c];
+    double vp = (1.0 - s) * v[3 * a + c] + s * v[3 * a + 3 + c];
+    double vq = (1.0 - t) * v[3 * b + c] + t * v[3 * b + 3 + c];
+    found->relative[c] = vp - vq;
   }
-  double relative[3] = {vp[0] - vq[0], vp[1] - vq[1], vp[2] - vq[2]};
-  const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * a : NULL;
-  const double* elongation = stick && (int)stick[4] == b ? stick + 5 : NULL;
-  double f[3], tangent[3], mu = rod->def.self_friction;
-  double normal = contact_force(rod, depth, n, relative, mu, elongation, f, tangent);
-  if (normal <= 0.0) return;
-  double share[3];
-  for (int c = 0; c < 3; ++c) share[c] = (1.0 - s) * f[c];
-  add_at_sphere(rod, a, share, p->Q);
-  for (int c = 0; c < 3; ++c) share[c] = s * f[c];
-  add_at_sphere(rod, a + 1, share, p->Q);
-  for (int c = 0; c < 3; ++c) share[c] = -(1.0 - t) * f[c];
-  add_at_sphere(rod, b, share, p->Q);
-  for (int c = 0; c < 3; ++c) share[c] = -t * f[c];
-  add_at_sphere(rod, b + 1, share, p->Q);
-  vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, n, tangent, s, t);
-  ++p->contacts;
+  keep(p, found);
 }
 
 // Narrow phase of sphere i against geom p->geom.
@@ -132,23 +183,69 @@ static void sphere_geom(void* context, int i) {
   double distance = vsc_geom_distance(geom, x, n);
   double depth = r - distance;
   if (!(depth > 0.0)) return;
+  found_contact spare, *found = next_slot(p, &spare);
+  found->a = i;
+  found->b = p->geom;
+  found->rigid = 1;
+  found->s = found->t = 0.0;
+  found->depth = depth;
   // contact point on the geom surface, and the sphere's velocity relative to it
-  double point[3] = {x[0] - distance * n[0], x[1] - distance * n[1], x[2] - distance * n[2]};
-  double geom_velocity[3];
-  vsc_geom_point_velocity(geom, point, geom_velocity);
-  const double* v = rod->sphere_velocity + 3 * i;
-  double relative[3] = {v[0] - geom_velocity[0], v[1] - geom_velocity[1], v[2] - geom_velocity[2]};
-  const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * i : NULL;
-  const double* elongation = stick && (int)stick[0] == p->geom ? stick + 1 : NULL;
-  double f[3], tangent[3];
-  double normal = contact_force(rod, depth, n, relative, geom->friction, elongation, f, tangent);
-  if (normal <= 0.0) return;
-  add_at_sphere(rod, i, f, p->Q);
-  if (p->world->geom_wrench) {
-    double arm[3] = {point[0] - geom->position[0], point[1] - geom->position[1], point[2] - geom->position[2]};
-    vsc_wrench_add(p->world->geom_wrench + 6 * p->geom, -p->context->wrench_weight, f, NULL, arm);
+  for (int c = 0; c < 3; ++c) {
+    found->n[c] = n[c];
+    found->point[c] = x[c] - distance * n[c];
   }
-  vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * i + VSC_TOUCH_RIGID, p->geom, normal, geom->friction, n, tangent, 0.0, 0.0);
+  double geom_velocity[3];
+  vsc_geom_point_velocity(geom, found->point, geom_velocity);
+  const double* v = rod->sphere_velocity + 3 * i;
+  for (int c = 0; c < 3; ++c) found->relative[c] = v[c] - geom_velocity[c];
+  keep(p, found);
+}
+
+// The force of a found contact: its normal push and friction on the rod, the
+// reaction on the geom, the touch record friction reads.
+static void push(pass* p, const found_contact* found) {
+  vsc_rod* rod = p->rod;
+  const double* scale = p->damping_scale;
+  double f[3], tangent[3], c = rod->def.contact_damping;
+  int a = found->a, b = found->b;
+  if (found->rigid) {
+    const vsc_geom* geom = &p->world->geoms[b];
+    const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * a : NULL;
+    const double* elongation = stick && (int)stick[0] == b ? stick + 1 : NULL;
+    if (scale) c *= scale[a];
+    double normal = contact_force(rod, found->depth, found->n, found->relative, geom->friction, c, elongation, f, tangent);
+    if (normal <= 0.0) return;
+    add_at_sphere(rod, a, f, p->Q);
+    if (p->world->geom_wrench) {
+      double arm[3] = {found->point[0] - geom->position[0], found->point[1] - geom->position[1],
+                       found->point[2] - geom->position[2]};
+      vsc_wrench_add(p->world->geom_wrench + 6 * b, -p->context->wrench_weight, f, NULL, arm);
+    }
+    vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
+                     0.0, 0.0);
+    ++p->contacts;
+    return;
+  }
+  const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * a : NULL;
+  const double* elongation = stick && (int)stick[4] == b ? stick + 5 : NULL;
+  double mu = rod->def.self_friction, s = found->s, t = found->t;
+  if (scale) {  // the most limited of its four spheres: the pair's forces stay equal and opposite
+    double least = scale[a] < scale[a + 1] ? scale[a] : scale[a + 1];
+    least = scale[b] < least ? scale[b] : least;
+    c *= scale[b + 1] < least ? scale[b + 1] : least;
+  }
+  double normal = contact_force(rod, found->depth, found->n, found->relative, mu, c, elongation, f, tangent);
+  if (normal <= 0.0) return;
+  double share[3];
+  for (int k = 0; k < 3; ++k) share[k] = (1.0 - s) * f[k];
+  add_at_sphere(rod, a, share, p->Q);
+  for (int k = 0; k < 3; ++k) share[k] = s * f[k];
+  add_at_sphere(rod, a + 1, share, p->Q);
+  for (int k = 0; k < 3; ++k) share[k] = -(1.0 - t) * f[k];
+  add_at_sphere(rod, b, share, p->Q);
+  for (int k = 0; k < 3; ++k) share[k] = -t * f[k];
+  add_at_sphere(rod, b + 1, share, p->Q);
+  vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
   ++p->contacts;
 }
 
@@ -157,42 +254,54 @@ static void sphere_geom(void* context, int i) {
 // distance cannot touch: skip it. The relative slack covers rounding.
 #define SKIP_SLACK (1.0 + 1e-9)
 
-int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
-  vsc_rod* rod = context->rod;
-  const vsc_world* world = context->world;
+// Find every contact of this evaluation (keep()).
+static void find_contacts(pass* p) {
+  vsc_rod* rod = p->rod;
+  const vsc_world* world = p->world;
   int spheres = rod->def.collision_sphere_count;
-  pass p = {context, rod, world, Q, 0, -1, NULL};
-  vsc_touch_clear(rod);
   vsc_contact_lists* l = rod->lists;
   if (!vsc_contact_lists_refresh(rod, world)) {  // a list overflowed: this evaluation tests everything directly
     if (rod->def.self_collision) vsc_contact_lists_update_segments(rod);
-    p.segment = l->segment;
+    p->segment = l->segment;
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
-      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(&p, a, b);
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(p, a, b);
     for (int g = 0; g < world->geom_count; ++g) {
-      p.geom = g;
-      for (int i = 0; i < spheres; ++i) sphere_geom(&p, i);
+      p->geom = g;
+      for (int i = 0; i < spheres; ++i) sphere_geom(p, i);
     }
-    return p.contacts;
+    return;
   }
+  reserve(rod, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
   if (rod->def.self_collision) {
     double contact = 2.0 * rod->def.radius * SKIP_SLACK;
     const double* moved = l->segment_moved;
     for (int k = 0; k < l->self_count; ++k) {
       int a = l->self_pairs[2 * k], b = l->self_pairs[2 * k + 1];
       if (l->self_distance[k] - moved[a] - moved[b] > contact) continue;
-      self_pair(&p, a, b);
+      self_pair(p, a, b);
     }
   }
-  if (l->geom_count == 0) return p.contacts;
+  if (l->geom_count == 0) return;
   const double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
   double contact = rod->def.radius * SKIP_SLACK;
   for (int k = 0; k < l->geom_count; ++k) {
     int g = l->geom_pairs[2 * k], i = l->geom_pairs[2 * k + 1];
     if (l->geom_distance[k] - l->geom_moved[i] - shift[g] > contact) continue;
-    p.geom = g;
-    sphere_geom(&p, i);
+    p->geom = g;
+    sphere_geom(p, i);
   }
+}
+
+int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
+  vsc_rod* rod = context->rod;
+  pass p = {context, rod, context->world, Q, 0, -1, NULL, NULL};
+  vsc_touch_clear(rod);
+  rod->found_count = 0;
+  find_contacts(&p);
+  // in a step, the damping limited where it adds up past its explicit limit (none in a lone evaluation)
+  if (vsc_contact_load_limit_damping(rod, context->substep)) p.damping_scale = rod->damping_scale;
+  const found_contact* found = (const found_contact*)rod->found;
+  for (int k = 0; k < rod->found_count; ++k) push(&p, &found[k]);
   return p.contacts;
 }
 

@@ -8,8 +8,10 @@
 /// Add the contact forces to Q (N, 3n): every candidate pair's narrow phase,
 /// friction from the context's stick state, reactions on geoms to
 /// world->geom_wrench times the context's wrench weight, the touch records
-/// (vsc_touch.h) rewritten. The spheres and their velocities must be placed
-/// (vsc_place.h). Returns the number of contacts.
+/// (vsc_touch.h) rewritten; within a step (context->substep > 0) the damping
+/// limited where contacts pile up past its explicit limit (vsc_contact_load.h).
+/// The spheres and their velocities must be placed (vsc_place.h). Returns the
+/// number of contacts.
 int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_H

@@ -17,6 +17,8 @@ typedef struct vsc_step_context {
                            ///< reactions of all a step's evaluations add up to their average over dt
   const double* unseen;    ///< the velocity change (m/s, 3n) the last substep made after its force
                            ///< evaluation read v, or NULL (vsc_friction.h's vsc_rod_update_stick)
+  double substep;          ///< the current substep's length h (s), which the contacts' explicit damping
+                           ///< must keep stable (vsc_contact_load.h); 0 in a lone evaluation: no limit
 } vsc_step_context;
 
 #endif  // VISCERA_SRC_VSC_CONTEXT_H

@@ -54,7 +54,7 @@ void vsc_forces_acceleration(const vsc_step_context* context, const double* q, c
 
 // A lone evaluation: no friction state, reactions at full weight.
 static vsc_step_context lone(vsc_rod* rod, const vsc_world* world) {
-  vsc_step_context context = {rod, world, NULL, 1.0, 1.0, NULL};
+  vsc_step_context context = {rod, world, NULL, 1.0, 1.0, NULL, 0.0};
   return context;
 }
 

@@ -11,6 +11,7 @@
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_friction.h"
 #include "vsc_contact_lists.h"
+#include "vsc_contact_load.h"
 #include "vsc_touch.h"
 
 
@@ -189,6 +190,8 @@ enum {
   ARRAY_FACTOR_ROW,      // half width + 1
   ARRAY_BACKUP,          // q, v (3n each), the friction state, then energy_state (6n)
   ARRAY_TOUCH,           // VSC_TOUCH_SIZE per sphere
+  ARRAY_CONTACT_LOAD,    // 1 per sphere, then 2n
+  ARRAY_DAMPING_SCALE,   // 1 per sphere
   ARRAY_GATHER_FIRST,    // 3n ints: gather_first, gather_count, gather_offset
   ARRAY_PINNED,          // pinned indices (at least 1)
   ARRAY_IS_PINNED,       // n bytes
@@ -219,6 +222,8 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_FACTOR_ROW] = (half_width + 1.0) * d;
   bytes[ARRAY_BACKUP] = (12.0 * n + VSC_STICK_SIZE * spheres) * d;
   bytes[ARRAY_TOUCH] = VSC_TOUCH_SIZE * spheres * d;
+  bytes[ARRAY_CONTACT_LOAD] = (spheres + 2.0 * n) * d;
+  bytes[ARRAY_DAMPING_SCALE] = spheres * d;
   bytes[ARRAY_GATHER_FIRST] = 3.0 * n * sizeof(int);
   bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
   bytes[ARRAY_IS_PINNED] = n;
@@ -270,6 +275,8 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
   rod->backup = (double*)AT(ARRAY_BACKUP);
   rod->touch = (double*)AT(ARRAY_TOUCH);
+  rod->contact_load = (double*)AT(ARRAY_CONTACT_LOAD);
+  rod->damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
   rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
   rod->pinned = (int*)AT(ARRAY_PINNED);
   rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);
@@ -346,6 +353,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   double sphere_spacing = def->length / (double)(spheres - 1);
   rod->self_gap = (int)ceil(VSC_PI * def->radius / sphere_spacing - 1e-9) + 1;
   assemble_mass(rod);
+  vsc_contact_load_prepare(rod);
   status = factor_mass(rod);
   if (status != VSC_OK) {
     vsc_rod_destroy(rod);
@@ -358,6 +366,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
 void vsc_rod_destroy(vsc_rod* rod) {
   if (!rod) return;
   free(rod->block);
+  free(rod->found);
   vsc_grid_destroy(rod->grid);
   vsc_contact_lists_destroy(rod->lists);
   free(rod);

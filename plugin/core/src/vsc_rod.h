@@ -59,6 +59,16 @@ struct vsc_rod {
   double contact_damping_rate;  ///< the stiffest contact mode's damping rate, c omega_contact^2 / k (1/s),
                                 ///< set by vsc_rod_frequencies (0 before)
   int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
+  double* contact_load;      ///< per sphere, the contact pass's stiffness (N/m), then per control point
+                             ///< its Gershgorin row (n), both zero between passes, then the inverse
+                             ///< lumped masses (n, 1/kg; 0 where pinned) (vsc_contact_load.h)
+  double* damping_scale;     ///< per sphere, the factor (<= 1) on its contacts' damping in a limited pass
+  void* found;               ///< the contacts the pass found, before their forces (vsc_contact.c; own
+                             ///< allocation, grown as needed)
+  int found_count;           ///< contacts in `found`
+  int found_capacity;        ///< contacts `found` holds
+  double contact_load_unit;  ///< the largest row per unit stiffness at every sphere (1/kg)
+  double contact_load_bound; ///< the last pass's largest bound on gamma h (vsc_contact_load.h)
   vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
   void* block;               ///< the one allocation every array above lives in (vsc_rod.c's size table)

@@ -85,6 +85,7 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
   clear_reactions(context->world);
   for (int s = 0; s < substeps; ++s) {
     context->unseen = NULL;
+    context->substep = h;
     if (scheme->substep(context, q, v, h) != VSC_OK || !state_is_sane(q, v, size)) return 0;
     // friction, from the last evaluation's contacts
     if (context->stick) vsc_rod_update_stick(rod, context->stick, h, context->unseen);
@@ -98,7 +99,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
       !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
     return VSC_ERROR_INVALID_ARGUMENT;
-  vsc_step_context context = {rod, world, stick, dt, 0.0, NULL};
+  vsc_step_context context = {rod, world, stick, dt, 0.0, NULL, 0.0};
   const vsc_scheme* scheme = &vsc_schemes[o.integrator];
   int size = 3 * rod->n, spheres = rod->def.collision_sphere_count;
   for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said

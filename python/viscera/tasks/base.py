@@ -264,6 +264,14 @@ class BowelTask(base.Task):
     POLICY: Callable | None = None  # its scripted policy: POLICY(env) is a callable time_step -> action
 
     TOOLS: tuple[scene.Tool, ...] = ()
+    # The tools' top speeds, per second in each coordinate's unit (rad, m): each actuator's target
+    # moves toward the action at most this fast, as a hand or a robot moves a laparoscopic tool
+    # (tip speeds up to about 0.3 m/s). An action far from the tool is reached smoothly instead of
+    # in one jump: uniform random actions once drove a depth slide at 10 m/s through the bowel
+    # and the posterior wall. 1.25 times the scripted policies' planning limits (policies.LIMITS),
+    # so their moves never meet them; the jaws close at any speed (they do not push the bowel).
+    TOOL_SPEED = {"pitch": np.radians(75.0), "yaw": np.radians(75.0), "depth": 0.1875, "roll": np.radians(112.5),
+                  "jaw": np.inf}
     HOLD_S = 0.0          # s the condition must hold for success
     TIME_LIMIT_S = 20.0   # s, the default episode length
 
@@ -276,6 +284,8 @@ class BowelTask(base.Task):
         self._failed = False
         self.camera = None  # viscera.pixels.Camera when pixels are observed
         self._measured: Measurements | None = None  # the last state's (measurements)
+        self.control_timestep_s = 0.02  # s, the environment's (build sets it)
+        self._tool_speeds: np.ndarray | None = None
 
     def reseed(self, seed: int | None) -> None:
         """Draw the next episodes as a task built with `seed` would (numpy's RandomState(seed)):
@@ -287,6 +297,20 @@ class BowelTask(base.Task):
         if self.POLICY is None:
             raise NotImplementedError(f"task {self.NAME!r} has no scripted policy")
         return self.POLICY(env)
+
+    def before_step(self, action, physics: Physics) -> None:
+        """The actuators' targets move toward `action` at the tools' top speeds (TOOL_SPEED)."""
+        action = np.asarray(getattr(action, "continuous_actions", action), dtype=float)
+        if self._tool_speeds is None or len(self._tool_speeds) != physics.model.nu:  # the task's tools are fixed
+            self._tool_speeds = self.tool_speeds(physics)
+        reach = self._tool_speeds * self.control_timestep_s
+        current = physics.data.ctrl
+        physics.set_control(np.clip(action, current - reach, current + reach))
+
+    def tool_speeds(self, physics: Physics) -> np.ndarray:
+        """Each actuator's top speed (TOOL_SPEED by its coordinate, the name's last part)."""
+        names = [physics.model.id2name(i, "actuator") for i in range(physics.model.nu)]
+        return np.array([self.TOOL_SPEED.get(name.rsplit("_", 1)[-1], np.inf) for name in names])
 
     def measurements(self, physics: Physics) -> Measurements:
         """The measurements of `physics` as it is now, which the condition, the reward and the
@@ -495,6 +519,7 @@ def build(task_class: type[BowelTask], seed: int | None = None, time_limit: floa
             raise TypeError(f"load() got an unexpected keyword argument {name!r}")
     task = task_class(random=np.random.RandomState(seed), axis_samples=checked_axis_samples(axis_samples),
                       randomize=randomize, **options)
+    task.control_timestep_s = control_timestep
     physics = Physics.from_xml_string(task.scene_xml(None))
     return Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,
                        control_timestep=control_timestep)

@@ -110,6 +110,33 @@ def draw_episode(random: np.random.RandomState, length: float = 3.0) -> Episode:
         tilt_deg=float(random.uniform(*TILT_DEG)), tilt_azimuth_deg=float(random.uniform(0.0, 360.0)))
 
 
+def tissue_corners(length: float = 3.0) -> dict[str, dict[str, str]]:
+    """The ends of every tissue range above, as the intestine config keys of a `length` m bowel:
+    2 x 2 x 2 corners named mass_springs_grip, light or heavy, soft or stiff (both spring scales),
+    slippery (low friction, weak and shallow mesentery) or grippy (the other ends)."""
+    stretch, bend = default_stiffnesses(length)
+    corners = {}
+    for mass_name, mass_per_length in zip(("light", "heavy"), MASS_PER_LENGTH):
+        for spring_name, scale in zip(("soft", "stiff"), STIFFNESS_SCALE):
+            for grip, end in (("slippery", 0), ("grippy", 1)):
+                values = {"mass": mass_per_length * length, "stretch_stiffness": stretch * scale,
+                          "bend_stiffness": bend * scale, "friction": FRICTION[end],
+                          "self_friction": SELF_FRICTION[end], "mesentery_stiffness": MESENTERY_STIFFNESS[end],
+                          "mesentery_length": MESENTERY_LENGTH[end]}
+                corners[f"{mass_name}_{spring_name}_{grip}"] = {key: f"{value:.6g}" for key, value in values.items()}
+    return corners
+
+
+def with_intestine_config(xml: str, config: dict[str, str]) -> str:
+    """`xml` (a scene with one intestine instance) with the intestine's config keys set (or, with
+    None, removed)."""
+    root = ElementTree.fromstring(xml)
+    instance = root.find("extension/plugin/instance")
+    for key, value in config.items():
+        _config(instance, key, value)
+    return ElementTree.tostring(root, encoding="unicode")
+
+
 def _rename(element: ElementTree.Element, old: str, new: str) -> None:
     """Every name-like attribute of `element` and below that starts with `old`, renamed to `new`."""
     for node in element.iter():

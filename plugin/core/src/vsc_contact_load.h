@@ -1,0 +1,50 @@
+// The contact load: the explicit damping of the last contact pass against the
+// substep it must stay stable over.
+//
+// A penalty contact's damping (contact_damping, N s/m) is explicit in every
+// integrator but the implicit one's rigid contacts: it holds while the
+// damping rate gamma a point feels, times the substep h, stays below 2. The
+// substeps come from one contact per sphere (vsc_stability.c), but a tool
+// pressing the bowel's loops into a pile piles many on a sphere: a crossing of
+// two tubes alone is found by up to 16 segment pairs, and a sphere squeezed
+// under a retractor was measured with 14. Their damping then adds up past the
+// limit and pumps energy into the pile each substep (random tool actions on
+// randomised cavity episodes: a storm of divergence recoveries). So each
+// contact pass bounds gamma h at every control point (Gershgorin's bound of
+// the damping matrix c J' J, over the lumped mass); where it exceeds
+// VSC_CONTACT_DAMPING_LIMIT the pass is redone with the damping of the
+// contacts there scaled down to the limit. Contacts below it, every ordinary
+// contact of the shipped scenes, are untouched, bit for bit.
+#ifndef VISCERA_SRC_VSC_CONTACT_LOAD_H
+#define VISCERA_SRC_VSC_CONTACT_LOAD_H
+
+#include "vsc_rod.h"
+
+/// The bound on gamma h (dimensionless) a contact pass keeps to: below the
+/// explicit limit 2 with a margin for the bound's pessimism in the other
+/// direction (it counts each contact at its full rate).
+#define VSC_CONTACT_DAMPING_LIMIT 2.0
+
+/// Set rod->contact_load_unit: the largest Gershgorin row of B' B over the
+/// lumped mass (1/kg, B the spheres' basis rows), the bound one unit of
+/// stiffness at every sphere gives. At creation, after the mass matrix.
+void vsc_contact_load_prepare(vsc_rod* rod);
+
+/// Add a contact's stiffness (N/m) to `sphere`'s load, weighted by the
+/// sphere's share of the contact times the contact's total share (1 against a
+/// geom; 2 between two segments, each side summing to 1): its row in the
+/// Gershgorin sum of the contact's matrix k J' n n' J.
+static inline void vsc_contact_load_add(vsc_rod* rod, int sphere, double stiffness) {
+  rod->contact_load[sphere] += stiffness;
+}
+
+/// After a contact pass at substep h (s): 1 if its damping bound exceeds
+/// VSC_CONTACT_DAMPING_LIMIT somewhere; then rod->damping_scale holds, per
+/// sphere, the factor (<= 1) to redo the pass with. 0 otherwise. Clears the
+/// load either way. O(spheres touched), O(spheres) when it returns 1.
+int vsc_contact_load_limit_damping(vsc_rod* rod, double h);
+
+/// The last vsc_contact_load_limit_damping's largest bound on gamma h (for tests and tools).
+double vsc_contact_load_last_bound(const vsc_rod* rod);
+
+#endif  // VISCERA_SRC_VSC_CONTACT_LOAD_H

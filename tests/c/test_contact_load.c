@@ -1,0 +1,95 @@
+// The contact load's damping limit (src/vsc_contact_load.h): ordinary loads are
+// left alone; where many contacts pile on a few spheres, the scaled damping
+// keeps every control point's Gershgorin bound on gamma h at the limit, and
+// the one-contact-per-sphere unit matches the lumped mass it is built on.
+#include <math.h>
+#include <string.h>
+
+#include "viscera/vsc_rod.h"
+#include "vsc_contact_load.h"
+#include "vsc_rod.h"
+#include "vsc_test.h"
+
+static vsc_rod* rod_of(int control_points, int spheres) {
+  vsc_rod_def def = vsc_default_rod_def();
+  def.control_count = control_points;
+  def.length = 1.0;
+  def.collision_sphere_count = spheres;
+  vsc_rod* rod = NULL;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
+  return rod;
+}
+
+// gamma h at control point k for the per-sphere loads `load` (N/m) scaled by `scale` (NULL: 1).
+static double bound_at(const vsc_rod* rod, const double* load, const double* scale, int k, double h) {
+  double row = 0.0;
+  for (int s = 0; s < rod->def.collision_sphere_count; ++s) {
+    const vsc_basis* b = &rod->sphere_basis[s];
+    double spread = 0.0, w = 0.0;
+    for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
+      spread += fabs(b->weight[j]);
+      if (b->first + j == k) w = fabs(b->weight[j]);
+    }
+    row += w * spread * load[s] * (scale ? scale[s] : 1.0);
+  }
+  return rod->def.contact_damping / rod->def.contact_stiffness * h * row / rod->mass_row_sum[k];
+}
+
+// One unit of stiffness at every sphere: the unit is the largest row over the lumped mass,
+// about (spheres per control point) x (sum of |weights|)^2 / (mass per point).
+static void unit_is_the_uniform_bound(void) {
+  vsc_rod* rod = rod_of(40, 81);
+  double load[81];
+  for (int s = 0; s < 81; ++s) load[s] = rod->def.contact_stiffness;
+  double peak = 0.0;
+  for (int k = 0; k < 40; ++k) {
+    double bound = bound_at(rod, load, NULL, k, 1.0);
+    peak = bound > peak ? bound : peak;
+  }
+  double per_unit = rod->def.contact_damping / rod->def.contact_stiffness * rod->def.contact_stiffness;
+  ENSURE_NEAR(rod->contact_load_unit * per_unit, peak, 1e-9 * peak);
+  vsc_rod_destroy(rod);
+}
+
+// The shipped scenes' ordinary contacts: one per sphere along the rod, at the 3-substep h of a
+// 2 ms step: far below the limit, nothing limited, and the load cleared for the next pass.
+static void ordinary_contacts_are_untouched(void) {
+  vsc_rod* rod = rod_of(40, 81);
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, rod->def.contact_stiffness);
+  ENSURE(vsc_contact_load_limit_damping(rod, 0.002 / 3.0) == 0);
+  for (int s = 0; s < 81; ++s) ENSURE(rod->contact_load[s] == 0.0);
+  vsc_rod_destroy(rod);
+}
+
+// A pile squeezed under a tool: 14 self contacts on each of a few spheres (measured in the
+// cavity). Limited, the scaled loads keep every control point at or below the limit, the
+// scales stay in (0, 1], and spheres far from the pile keep their damping.
+static void a_squeezed_pile_is_limited_to_the_bound(void) {
+  vsc_rod* rod = rod_of(40, 81);
+  double load[81] = {0.0}, h = 0.002 / 3.0;
+  for (int s = 30; s <= 36; ++s) load[s] = 14.0 * 2.0 * rod->def.contact_stiffness;
+  load[70] = rod->def.contact_stiffness;  // an ordinary contact elsewhere
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, load[s]);
+  ENSURE(vsc_contact_load_limit_damping(rod, h) == 1);
+  ENSURE(vsc_contact_load_last_bound(rod) > VSC_CONTACT_DAMPING_LIMIT);
+  double worst = 0.0, unscaled = 0.0;
+  for (int k = 0; k < 40; ++k) {
+    double b = bound_at(rod, load, rod->damping_scale, k, h);
+    worst = b > worst ? b : worst;
+    double u = bound_at(rod, load, NULL, k, h);
+    unscaled = u > unscaled ? u : unscaled;
+  }
+  ENSURE_NEAR(unscaled, vsc_contact_load_last_bound(rod), 1e-9 * unscaled);
+  ENSURE(worst <= VSC_CONTACT_DAMPING_LIMIT * (1.0 + 1e-12));
+  ENSURE(worst >= 0.5 * VSC_CONTACT_DAMPING_LIMIT);  // limited to the bound, not far below it
+  for (int s = 30; s <= 36; ++s) ENSURE(rod->damping_scale[s] > 0.0 && rod->damping_scale[s] < 1.0);
+  ENSURE(rod->damping_scale[70] == 1.0);
+  vsc_rod_destroy(rod);
+}
+
+int main(void) {
+  RUN(unit_is_the_uniform_bound);
+  RUN(ordinary_contacts_are_untouched);
+  RUN(a_squeezed_pile_is_limited_to_the_bound);
+  TEST_MAIN_END();
+}
