@@ -56,18 +56,25 @@ def test_rewriting_the_shape_keeps_the_rest_of_the_scene():
         settle._with_shape("<mujoco/>", "line", None)
 
 
-@pytest.mark.parametrize("config", [{}, {"mass_matrix": "consistent"}, {"integrator": "rk4"}],
-                         ids=["defaults", "consistent_mass", "rk4"])
-def test_the_vigorous_sweep_needs_no_recovery(config):
+SWEEP_CONFIGS = {"defaults": {}, "consistent_mass": {"mass_matrix": "consistent"}, "rk4": {"integrator": "rk4"},
+                 **scene.tissue_corners()}
+
+
+@pytest.mark.parametrize("name", list(SWEEP_CONFIGS))
+def test_the_vigorous_sweep_needs_no_recovery(name):
     """bench_cavity's sweep (every actuator on a sine within its range, 20 s): at the substeps
-    chosen from the timestep the intestine never diverges, not even once recovered. At 15 s a
-    tool presses piled loops against the wall: with the contact damping's rate left out of the
-    substep count, leapfrog with the band mass matrix took 3 substeps there and blew up; it takes
-    4 now, the lumped default 3."""
+    chosen from the timestep the intestine never diverges, not even once recovered, at the
+    defaults, with the band mass matrix, under RK4, and with the tissue the tasks draw at the ends
+    of every range (2 x 2 x 2 corners: mass, springs, grip).
+    - At 15 s a tool presses piled loops against the wall: with the contact damping's rate left
+      out of the substep count, leapfrog with the band mass matrix took 3 substeps there and blew
+      up; it takes 4 now, the lumped default 3.
+    - Light, stiff and grippy, a tool pressing piled loops on each other put up to 14 contacts on
+      a sphere, whose damping added up past its explicit limit (gamma h < 2): it recovered twice
+      in 20 s; the contact pass now limits it there (src/vsc_contact_load.h)."""
     import bench_cavity
-    text = ABDOMEN.read_text()
-    added = "".join(f'<config key="{key}" value="{value}"/>' for key, value in config.items())
-    model = mujoco.MjModel.from_xml_string(text.replace('<config key="length"', added + '<config key="length"', 1))
+    config = {key: str(value) for key, value in SWEEP_CONFIGS[name].items()}
+    model = mujoco.MjModel.from_xml_string(scene.with_intestine_config(ABDOMEN.read_text(), config))
     data = mujoco.MjData(model)
     gut = viscera.intestine(model)
     for ctrl in bench_cavity.sweep_controls(model, 20.0):
@@ -75,21 +82,3 @@ def test_the_vigorous_sweep_needs_no_recovery(config):
         mujoco.mj_step(model, data)
     assert gut.recovery_count(data) == 0 and gut.divergence_count(data) == 0
     assert np.abs(gut.velocities(data)).max() < 2.0  # m/s: tools move the bowel, nothing flings it
-
-
-@pytest.mark.parametrize("corner", sorted(scene.tissue_corners()))
-def test_the_vigorous_sweep_needs_no_recovery_at_the_ends_of_the_tissue_ranges(corner):
-    """The same sweep on the tissue the tasks draw, at the ends of every range (2 x 2 x 2
-    corners). Light, stiff and grippy, a tool pressing piled loops on each other piled up to 14
-    contacts on a sphere, whose damping added up past its explicit limit (gamma h < 2) and
-    recovered twice in 20 s; the contact pass now limits it there (src/vsc_contact_load.h)."""
-    import bench_cavity
-    model = mujoco.MjModel.from_xml_string(scene.with_intestine_config(ABDOMEN.read_text(),
-                                                                       scene.tissue_corners()[corner]))
-    data = mujoco.MjData(model)
-    gut = viscera.intestine(model)
-    for ctrl in bench_cavity.sweep_controls(model, 20.0):
-        data.ctrl[:] = ctrl
-        mujoco.mj_step(model, data)
-    assert gut.recovery_count(data) == 0 and gut.divergence_count(data) == 0
-    assert np.abs(gut.velocities(data)).max() < 2.0
