@@ -11,18 +11,17 @@
 // limit and pumps energy into the pile each substep (random tool actions on
 // randomised cavity episodes: a storm of divergence recoveries). So each
 // contact pass bounds gamma h at every control point (Gershgorin's bound of
-// the damping matrix c J' J, over the lumped mass); where it exceeds
-// VSC_CONTACT_DAMPING_LIMIT the pass is redone with the damping of the
-// contacts there scaled down to the limit. Contacts below it, every ordinary
-// contact of the shipped scenes, are untouched, bit for bit.
+// the damping matrix c J' J, over the lumped mass) after finding its contacts
+// and before pushing them; where the bound exceeds VSC_CONTACT_DAMPING_LIMIT
+// the damping of the contacts there is scaled down to the limit. Contacts below
+// it (a tube on a plane, any pile below the bound) are untouched, bit for bit.
 #ifndef VISCERA_SRC_VSC_CONTACT_LOAD_H
 #define VISCERA_SRC_VSC_CONTACT_LOAD_H
 
 #include "vsc_rod.h"
 
-/// The bound on gamma h (dimensionless) a contact pass keeps to: below the
-/// explicit limit 2 with a margin for the bound's pessimism in the other
-/// direction (it counts each contact at its full rate).
+/// The bound on gamma h (dimensionless) a contact pass keeps to: the explicit
+/// limit itself, as the bound is an upper one (no margin needed).
 #define VSC_CONTACT_DAMPING_LIMIT 2.0
 
 /// Set rod->contact_load_unit: the largest Gershgorin row of B' B over the
@@ -40,8 +39,8 @@ static inline void vsc_contact_load_add(vsc_rod* rod, int sphere, double stiffne
 
 /// After a contact pass at substep h (s): 1 if its damping bound exceeds
 /// VSC_CONTACT_DAMPING_LIMIT somewhere; then rod->damping_scale holds, per
-/// sphere, the factor (<= 1) to redo the pass with. 0 otherwise. Clears the
-/// load either way. O(spheres touched), O(spheres) when it returns 1.
+/// sphere, the factor (<= 1) on its contacts' damping. 0 otherwise. Clears the
+/// load either way. O(spheres): below the limit, one pass for the most loaded sphere.
 int vsc_contact_load_limit_damping(vsc_rod* rod, double h);
 
 /// The last vsc_contact_load_limit_damping's largest bound on gamma h (for tests and tools).

@@ -110,20 +110,28 @@ def draw_episode(random: np.random.RandomState, length: float = 3.0) -> Episode:
         tilt_deg=float(random.uniform(*TILT_DEG)), tilt_azimuth_deg=float(random.uniform(0.0, 360.0)))
 
 
+def tissue_config(length: float, mass: float, stiffness_scale: float, friction: float,
+                  self_friction: float, mesentery_stiffness: float, mesentery_length: float) -> dict[str, str]:
+    """The intestine config keys of one tissue draw (the ranges above) for a `length` m bowel of
+    `mass` kg: the plugin's own default springs at this length scaled, friction and mesentery."""
+    stretch, bend = default_stiffnesses(length)
+    values = {"mass": mass, "stretch_stiffness": stretch * stiffness_scale,
+              "bend_stiffness": bend * stiffness_scale, "friction": friction, "self_friction": self_friction,
+              "mesentery_stiffness": mesentery_stiffness, "mesentery_length": mesentery_length}
+    return {key: f"{value:.6g}" for key, value in values.items()}
+
+
 def tissue_corners(length: float = 3.0) -> dict[str, dict[str, str]]:
     """The ends of every tissue range above, as the intestine config keys of a `length` m bowel:
     2 x 2 x 2 corners named mass_springs_grip, light or heavy, soft or stiff (both spring scales),
     slippery (low friction, weak and shallow mesentery) or grippy (the other ends)."""
-    stretch, bend = default_stiffnesses(length)
     corners = {}
     for mass_name, mass_per_length in zip(("light", "heavy"), MASS_PER_LENGTH):
         for spring_name, scale in zip(("soft", "stiff"), STIFFNESS_SCALE):
             for grip, end in (("slippery", 0), ("grippy", 1)):
-                values = {"mass": mass_per_length * length, "stretch_stiffness": stretch * scale,
-                          "bend_stiffness": bend * scale, "friction": FRICTION[end],
-                          "self_friction": SELF_FRICTION[end], "mesentery_stiffness": MESENTERY_STIFFNESS[end],
-                          "mesentery_length": MESENTERY_LENGTH[end]}
-                corners[f"{mass_name}_{spring_name}_{grip}"] = {key: f"{value:.6g}" for key, value in values.items()}
+                corners[f"{mass_name}_{spring_name}_{grip}"] = tissue_config(
+                    length, mass_per_length * length, scale, FRICTION[end], SELF_FRICTION[end], MESENTERY_STIFFNESS[end],
+                    MESENTERY_LENGTH[end])
     return corners
 
 
@@ -199,15 +207,11 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
     if episode is not None:
         root.find("option").set("gravity", _numbers(episode.gravity))
         _config(instance, "points", _numbers(episode.control_points))
-        _config(instance, "mass", f"{episode.mass:.6g}")
         length = float(next(c.get("value") for c in instance.findall("config") if c.get("key") == "length"))
-        stretch, bend = default_stiffnesses(length)  # the plugin's own, at this length
-        _config(instance, "stretch_stiffness", f"{stretch * episode.stiffness_scale:.6g}")
-        _config(instance, "bend_stiffness", f"{bend * episode.stiffness_scale:.6g}")
-        _config(instance, "friction", f"{episode.friction:.6g}")
-        _config(instance, "self_friction", f"{episode.self_friction:.6g}")
-        _config(instance, "mesentery_stiffness", f"{episode.mesentery_stiffness:.6g}")
-        _config(instance, "mesentery_length", f"{episode.mesentery_length:.6g}")
+        for key, value in tissue_config(length, episode.mass, episode.stiffness_scale, episode.friction,
+                                        episode.self_friction, episode.mesentery_stiffness,
+                                        episode.mesentery_length).items():
+            _config(instance, key, value)
     for key, value in (intestine_config or {}).items():
         _config(instance, key, value)
     site = worldbody.find("site[@name='target_area']")
