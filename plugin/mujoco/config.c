@@ -347,6 +347,13 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
     return fail(r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(r, "young_modulus"));
   c->auto_substeps = !given[VSC_KEY_substeps];
+  // sleeping holds points still, which the consistent matrix and the implicit solve cannot do in part
+  int can_sleep = d->lumped_mass && c->step.integrator != VSC_INTEGRATOR_IMPLICIT;
+  if (!given[VSC_KEY_sleep]) c->step.sleep.enabled = can_sleep;
+  if (c->step.sleep.enabled && !can_sleep)
+    return fail(r, "attribute 'sleep' = '1' needs 'mass_matrix' = 'lumped' and an explicit integrator, not "
+                "'mass_matrix' = '%s' with 'integrator' = '%s'", d->lumped_mass ? "lumped" : "consistent",
+                vsc_integrator_names[c->step.integrator]);
   if (!given[VSC_KEY_collision_spheres]) {
     d->collision_sphere_count = vsc_default_collision_sphere_count(d->length, d->radius);
     if (d->collision_sphere_count < 2)  // the default overflowed
@@ -378,6 +385,7 @@ static void core_defaults(vsc_plugin_config* c) {
   memset(c, 0, sizeof(*c));
   c->rod = vsc_default_rod_def();
   c->step = vsc_default_step_options();
+  c->step.sleep = vsc_default_sleep_options();
   c->skin = vsc_default_skin_def();
 }
 

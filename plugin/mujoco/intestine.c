@@ -93,6 +93,12 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
 
 static int config_state_size(const mjModel* m, const vsc_plugin_config* c) { return layout_of(m, c).total; }
 
+// The gravity the rod feels (m/s^2): the model's, unless disabled.
+static void model_gravity(const mjModel* m, double gravity[3]) {
+  int off = (m->opt.disableflags & mjDSBL_GRAVITY) != 0;
+  for (int c = 0; c < 3; ++c) gravity[c] = off ? 0.0 : m->opt.gravity[c];
+}
+
 static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, const double* initial_q, mjtNum* state) {
   int n = c->rod.control_count;
   if (initial_q != state) memcpy(state, initial_q, sizeof(double) * 3 * (size_t)n);
@@ -101,6 +107,8 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
          sizeof(double) * (size_t)(l.offset[VSC_STATE_FRICTION] - l.offset[VSC_STATE_VELOCITIES]));
   vsc_stick_clear(state + l.offset[VSC_STATE_FRICTION], c->rod.collision_sphere_count);
   memset(state + l.offset[VSC_STATE_GRASPS], 0, sizeof(double) * (size_t)l.size[VSC_STATE_GRASPS]);
+  vsc_rest_wake_all(n, state, state + l.offset[VSC_STATE_REST]);
+  model_gravity(m, state + l.offset[VSC_STATE_GRAVITY]);
 }
 
 // Build this instance's caches for `m` and make them d's: the model's state
@@ -374,8 +382,12 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   const vsc_state_layout l = it->layout;
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->world.count);
   vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
-  if (!(m->opt.disableflags & mjDSBL_GRAVITY))
-    for (int c = 0; c < 3; ++c) world.gravity[c] = m->opt.gravity[c];
+  model_gravity(m, world.gravity);
+  mjtNum* slept_under = state + l.offset[VSC_STATE_GRAVITY];  // a new gravity wakes every point
+  if (memcmp(slept_under, world.gravity, sizeof(world.gravity)) != 0) {
+    vsc_rest_wake_all(it->config.rod.control_count, state + l.offset[VSC_STATE_POSITIONS], state + l.offset[VSC_STATE_REST]);
+    memcpy(slept_under, world.gravity, sizeof(world.gravity));
+  }
   if (world.geom_count > 0) vsc_mujoco_geoms_update(m, d, it->config.friction, &it->world);
   warn_once(m, it, &world, state);
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
@@ -438,7 +450,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   vsc_step_report report = {0, 0};
   vsc_status status = vsc_rod_step(it->rod, &world, state + l.offset[VSC_STATE_POSITIONS],
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
-                                   m->opt.timestep, &step, &report);
+                                   state + l.offset[VSC_STATE_REST], m->opt.timestep, &step, &report);
   scatter(m, d, it, &world, state);
   count_trouble(d, it, state, status, &report, step.substeps);
 }

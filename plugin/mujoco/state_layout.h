@@ -20,10 +20,19 @@
 //                      1 holding, 2 closed without a hold: missed or slipped),
 //                      held abscissa s in [0, 1], held point in the site frame
 //                      (m, 3), slip count
+//   rest          8n   per control point, its rest record (vsc_sleep.h): the
+//                      time it has been at rest (s; it sleeps from `sleep_time`
+//                      on), where its rest began (m, 3), asleep next to awake
+//                      points the acceleration its forces gave it when it came
+//                      to lie there (m/s^2, 3) and 1 once taken; reset wakes
+//                      every point at its initial position
+//   gravity       3    the gravity (m/s^2) the rest times were counted under: a
+//                      change wakes every point
 #ifndef VISCERA_PLUGIN_STATE_LAYOUT_H
 #define VISCERA_PLUGIN_STATE_LAYOUT_H
 
 #include "viscera/vsc_friction.h"
+#include "viscera/vsc_sleep.h"
 
 /// Numbers per grasper in the grasps block.
 #define VSC_GRASP_STATE_SIZE 6
@@ -37,6 +46,8 @@ typedef enum vsc_state_block {
   VSC_STATE_WRENCHES,
   VSC_STATE_FRICTION,
   VSC_STATE_GRASPS,
+  VSC_STATE_REST,
+  VSC_STATE_GRAVITY,
   VSC_STATE_BLOCK_COUNT
 } vsc_state_block;
 
@@ -47,11 +58,11 @@ typedef struct vsc_state_layout {
   int total;
 } vsc_state_layout;
 
-/// Numbers per item of each block: per control point, per body, per sphere, per grasper.
+/// Numbers per item of each block: per control point, per body, per sphere, per grasper (gravity: one item).
 static const int vsc_state_block_width[VSC_STATE_BLOCK_COUNT] = {
     [VSC_STATE_POSITIONS] = 3, [VSC_STATE_VELOCITIES] = 3, [VSC_STATE_DIVERGENCES] = 1,
     [VSC_STATE_RECOVERIES] = 1, [VSC_STATE_WRENCHES] = 6, [VSC_STATE_FRICTION] = VSC_STICK_SIZE,
-    [VSC_STATE_GRASPS] = VSC_GRASP_STATE_SIZE};
+    [VSC_STATE_GRASPS] = VSC_GRASP_STATE_SIZE, [VSC_STATE_REST] = VSC_REST_SIZE, [VSC_STATE_GRAVITY] = 3};
 
 /// A grasper's status in its first number, by name (static storage, NULL-terminated).
 enum { VSC_GRASP_OPEN = 0, VSC_GRASP_HOLDING = 1, VSC_GRASP_CLOSED_EMPTY = 2 };
@@ -63,13 +74,13 @@ static const char* const vsc_state_block_names[VSC_STATE_BLOCK_COUNT] = {
     [VSC_STATE_POSITIONS] = "positions",   [VSC_STATE_VELOCITIES] = "velocities",
     [VSC_STATE_DIVERGENCES] = "divergences", [VSC_STATE_RECOVERIES] = "recoveries",
     [VSC_STATE_WRENCHES] = "wrenches",     [VSC_STATE_FRICTION] = "friction",
-    [VSC_STATE_GRASPS] = "grasps"};
+    [VSC_STATE_GRASPS] = "grasps", [VSC_STATE_REST] = "rest", [VSC_STATE_GRAVITY] = "gravity"};
 
 /// The layout for n control points, `spheres` collision spheres, `bodies`
 /// bodies and `graspers` graspers: the blocks back to back.
 static inline vsc_state_layout vsc_state_layout_of(int n, int spheres, int bodies, int graspers) {
   vsc_state_layout l;
-  const int items[VSC_STATE_BLOCK_COUNT] = {n, n, 1, 1, bodies, spheres, graspers};
+  const int items[VSC_STATE_BLOCK_COUNT] = {n, n, 1, 1, bodies, spheres, graspers, n, 1};
   int at = 0;
   for (int b = 0; b < VSC_STATE_BLOCK_COUNT; ++b) {
     l.offset[b] = at;

@@ -2,20 +2,23 @@
 
     python python/tools/bench_cavity.py [--runs 5] [--loads gesture sweep] [--json out.json]
 
-Two loads, each a list of controls replayed on bare MjModel/MjData, timing
-every mj_step (the full control loop step: MuJoCo's step and the plugin's
-compute and advance, one 2 ms step) with perf_counter_ns:
-  - gesture: the clearing gesture, played once through the clear_area task to
-    record its controls (tools moving, the grasper taking and releasing holds);
-  - sweep: every actuator on a smooth sine within its control range, each at
-    its own period (1 + 0.37 i s for actuator i, amplitude 45 % of the range
-    about its middle; tests/c/scene_steps.c drives the same), so both tools
-    sweep the cavity, push through the bowel and the jaws open and close: the
-    vigorous load.
+Three loads, each a list of controls replayed on bare MjModel/MjData from a start, timing
+every mj_step (the full control loop step: MuJoCo's step and the plugin's compute and advance,
+one 2 ms step) with perf_counter_ns:
+  - gesture: the clearing gesture, played once through the clear_area task (seed 0) to record
+    its scene, its settled start and its controls (tools moving, the grasper taking and
+    releasing holds), then replayed on that scene from that start;
+  - rest: the same scene and start with the tools withdrawn and still (every control 0): the
+    bowel resting, which sleeping should make nearly free;
+  - sweep: the shipped scene, every actuator on a smooth sine within its control range, each at
+    its own period (1 + 0.37 i s for actuator i, amplitude 45 % of the range about its middle;
+    tests/c/scene_steps.c drives the same), so both tools sweep the cavity, push through the
+    bowel and the jaws open and close: the vigorous load.
 Peers, run in the same process on the same controls:
   - full: 250 control points, self-collision, both tools, grasping, at the
     defaults (leapfrog with the lumped mass matrix: 3 substeps of one force
-    evaluation per 2 ms step);
+    evaluation per 2 ms step; sleeping on);
+  - sleep off: the same with `sleep` 0, every control point integrated every step;
   - RK4, consistent mass: the previous defaults (2 RK4 substeps of 4
     evaluations; same controls, so this compares cost, not outcome);
   - consistent mass: leapfrog with the paper's band mass matrix (4 substeps:
@@ -39,6 +42,7 @@ import json
 import re
 import statistics
 import time
+from typing import NamedTuple
 
 import viscera  # first: headless GL backend
 
@@ -50,19 +54,36 @@ from viscera import cli  # noqa: E402
 from viscera.tasks import scene  # noqa: E402
 
 
-def record_gesture_controls(duration: float = 20.0) -> np.ndarray:
-    """The gesture's controls at every physics step (shape (steps, nu))."""
+class Load(NamedTuple):
+    """Controls replayed on a scene from a start."""
+    xml: str              # the scene (MJCF text)
+    controls: np.ndarray  # every physics step's controls (steps, nu)
+    start: dict | None    # qpos, and the intestine's control points (m) and velocities (m/s); None: the model's
+
+
+def record_gesture(duration: float = 20.0) -> Load:
+    """The clearing gesture through clear_area's seed-0 episode: its scene, its settled start and
+    its controls at every physics step."""
     from viscera.tasks.gesture import ClearingGesture
     env = viscera.tasks.load("clear_area", seed=0, time_limit=duration, end_on_success=False)
     policy = ClearingGesture(env)
     step = env.reset()
-    substeps = int(round(env.control_timestep() / env.physics.model.opt.timestep))
+    model, data = env.physics.model.ptr, env.physics.data.ptr
+    gut = viscera.intestine(model)
+    start = {"qpos": data.qpos.copy(), "positions": gut.positions(data).copy(),
+             "velocities": gut.velocities(data).copy()}
+    xml = env.task.scene_xml(env.task.episode)
+    substeps = int(round(env.control_timestep() / model.opt.timestep))
     controls = []
     while not step.last():
-        action = policy(step)
-        controls += [np.asarray(action, dtype=float)] * substeps
-        step = env.step(action)
-    return np.array(controls)
+        step = env.step(policy(step))
+        controls += [data.ctrl.copy()] * substeps  # the targets the step drove: the action at the tools' speeds
+    return Load(xml, np.array(controls), start)
+
+
+def record_gesture_controls(duration: float = 20.0) -> np.ndarray:
+    """The gesture's controls at every physics step (shape (steps, nu)), as record_gesture."""
+    return record_gesture(duration).controls
 
 
 def sweep_controls(model: mujoco.MjModel, duration: float = 20.0) -> np.ndarray:
@@ -77,29 +98,36 @@ def sweep_controls(model: mujoco.MjModel, duration: float = 20.0) -> np.ndarray:
 
 
 # config keys each variant adds to the intestine's instance
-VARIANT_CONFIG = {"RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent"},
+VARIANT_CONFIG = {"sleep off": {"sleep": "0"},
+                  "RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent"},
                   "consistent mass": {"mass_matrix": "consistent"},
-                  "spheres 1.5 r": {"collision_spheres": 161},
-                  "implicit, 1 substep": {"integrator": "implicit", "substeps": 1},
-                  "no self-collision": {"self_collision": 0}}
+                  "spheres 1.5 r": {"collision_spheres": "161"},
+                  "implicit, 1 substep": {"integrator": "implicit", "substeps": "1"},
+                  "no self-collision": {"self_collision": "0"}}
 
 
-def variant_xml(name: str) -> str:
-    """The cavity scene, whole, with config keys added, or with the intestine removed."""
-    text = scene.scene_file(scene.ABDOMEN).read_text()
+def variant_xml(name: str, text: str | None = None) -> str:
+    """A cavity scene (default: the shipped one), whole, with a variant's config keys added, or
+    with the intestine removed."""
+    text = scene.scene_file(scene.ABDOMEN).read_text() if text is None else text
     if name in VARIANT_CONFIG:
-        added = "".join(f'<config key="{key}" value="{value}"/>\n        '
-                        for key, value in VARIANT_CONFIG[name].items())
-        return text.replace('<config key="friction"', added + '<config key="friction"', 1)
+        return scene.with_intestine_config(text, VARIANT_CONFIG[name])
     if name == "rigid only":
         text = re.sub(r"<extension>.*?</extension>", "", text, flags=re.S)
         return re.sub(r"<sensor>.*?</sensor>", "", text, flags=re.S)
     return text
 
 
-def time_replay(model: mujoco.MjModel, controls: np.ndarray) -> np.ndarray:
-    """Wall time of every mj_step (s) replaying `controls` from the model's initial state."""
+def time_replay(model: mujoco.MjModel, controls: np.ndarray, start: dict | None = None) -> np.ndarray:
+    """Wall time of every mj_step (s) replaying `controls` from `start` (Load.start; None: the
+    model's initial state)."""
     data = mujoco.MjData(model)
+    if start is not None:
+        data.qpos[:] = start["qpos"]
+        if model.nplugin:
+            gut = viscera.intestine(model)
+            gut.positions(data)[:] = start["positions"]
+            gut.velocities(data)[:] = start["velocities"]
     mujoco.mj_forward(model, data)
     latency = np.empty(len(controls))
     clock = time.perf_counter_ns
@@ -111,11 +139,11 @@ def time_replay(model: mujoco.MjModel, controls: np.ndarray) -> np.ndarray:
     return latency
 
 
-VARIANTS = ("full", "RK4, consistent mass", "consistent mass", "spheres 1.5 r", "implicit, 1 substep",
+VARIANTS = ("full", "sleep off", "RK4, consistent mass", "consistent mass", "spheres 1.5 r", "implicit, 1 substep",
             "no self-collision", "rigid only")
 
 
-LOADS = ("gesture", "sweep")
+LOADS = ("gesture", "rest", "sweep")
 
 
 def _summary(per_run: list, timestep: float) -> dict:
@@ -131,19 +159,26 @@ def _summary(per_run: list, timestep: float) -> dict:
 
 def run(runs: int = 5, duration: float = 20.0, quiet: bool = False, loads: tuple = LOADS,
         variants: tuple = VARIANTS) -> dict:
-    models = {name: mujoco.MjModel.from_xml_string(variant_xml(name)) for name in variants}
-    timestep = models[variants[0]].opt.timestep
-    controls = {}
-    if "gesture" in loads:
-        controls["gesture"] = record_gesture_controls(duration)
+    loads_run = {}
+    if "gesture" in loads or "rest" in loads:
+        gesture = record_gesture(duration)
+        if "gesture" in loads:
+            loads_run["gesture"] = gesture
+        if "rest" in loads:
+            loads_run["rest"] = gesture._replace(controls=np.zeros_like(gesture.controls))
     if "sweep" in loads:
-        controls["sweep"] = sweep_controls(models[variants[0]], duration)
+        shipped = variant_xml("full")
+        loads_run["sweep"] = Load(shipped, sweep_controls(mujoco.MjModel.from_xml_string(shipped), duration), None)
+    models = {load: {name: mujoco.MjModel.from_xml_string(variant_xml(name, entry.xml)) for name in variants}
+              for load, entry in loads_run.items()}
+    timestep = next(iter(next(iter(models.values())).values())).opt.timestep
+    controls = {load: entry.controls for load, entry in loads_run.items()}
     samples = {load: {name: [] for name in variants} for load in controls}
     with tqdm(total=runs * len(variants) * len(controls), desc="replays", disable=quiet) as bar:
         for _ in range(runs):  # interleaved, so machine noise hits every variant alike
             for load, ctrl in controls.items():
                 for name in variants:
-                    samples[load][name].append(time_replay(models[name], ctrl))
+                    samples[load][name].append(time_replay(models[load][name], ctrl, loads_run[load].start))
                     bar.update(1)
     results = {"timestep_s": timestep, "runs": runs, "loads": {}}
     for load in controls:
@@ -153,6 +188,7 @@ def run(runs: int = 5, duration: float = 20.0, quiet: bool = False, loads: tuple
 
 
 LOAD_TITLES = {"gesture": "clearing gesture replayed",
+               "rest": "the gesture's scene at rest, tools withdrawn",
                "sweep": "every actuator on a sine within its range (vigorous sweep)"}
 
 

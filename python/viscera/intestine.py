@@ -90,8 +90,9 @@ def default_stiffnesses(length: float) -> tuple[float, float]:
 
 
 def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
-    """Length, radius, mass, control points, spheres, samples per segment, as the plugin reads them."""
-    out = np.zeros(6)
+    """Length, radius, mass, control points, spheres, samples per segment, sleep (1 or 0), sleep time
+    (s), as the plugin reads them."""
+    out = np.zeros(8)
     status = _library.native().viscera_intestine_info(
         ctypes.c_void_p(model._address), instance, out.ctypes.data_as(ctypes.c_void_p))
     return out if status == 0 else None
@@ -159,6 +160,8 @@ class Intestine:
     control_count: int
     sphere_count: int
     samples_per_segment: int
+    sleeps: bool                 # config key `sleep`, its default applied: points at rest sleep
+    sleep_time_s: float          # s, at rest this long a control point sleeps
     layout: Mapping[str, slice]  # plugin_state's blocks (offsets from the instance's plugin_stateadr)
 
     def _state(self, data: mujoco.MjData) -> np.ndarray:
@@ -172,6 +175,12 @@ class Intestine:
     def velocities(self, data: mujoco.MjData) -> np.ndarray:
         """Control point velocities (m/s, shape (n, 3)), a view into data.plugin_state."""
         return self._state(data)[self.layout["velocities"]].reshape(self.control_count, 3)
+
+    def asleep(self, data: mujoco.MjData) -> np.ndarray:
+        """Which control points sleep (bool, shape (n,)): at rest for `sleep_time` with `sleep`
+        on; they are held still until something wakes them (see the config keys)."""
+        rest = self._state(data)[self.layout["rest"]].reshape(self.control_count, -1)
+        return (rest[:, 0] >= self.sleep_time_s) & self.sleeps
 
     def body_wrench(self, data: mujoco.MjData, body: int | str) -> np.ndarray:
         """Force (N) and torque (N m, about the body's centre of mass), world frame, that the
@@ -267,7 +276,8 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
         config = {key: value.decode() for key, value in zip(names, values) if value}
         found.append(Intestine(model, instance, name, config, rest_length=float(info[0]), radius=float(info[1]),
                                mass=float(info[2]), control_count=int(info[3]), sphere_count=int(info[4]),
-                               samples_per_segment=int(info[5]), layout=_layout(model, instance)))
+                               samples_per_segment=int(info[5]), sleeps=bool(info[6]), sleep_time_s=float(info[7]),
+                               layout=_layout(model, instance)))
     return found
 
 

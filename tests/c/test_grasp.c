@@ -58,7 +58,7 @@ static void a_held_rod_hangs_from_its_grasp(void) {
     options.substeps = t == VSC_INTEGRATOR_IMPLICIT ? 1 : 2;
     vsc_status status = VSC_OK;
     for (int step = 0; step < 3000 && status == VSC_OK; ++step)
-      status = vsc_rod_step(rod, &world, q, v, NULL, 0.002, &options, NULL);
+      status = vsc_rod_step(rod, &world, q, v, NULL, NULL, 0.002, &options, NULL);
     printf("  integrator %d: reaction %.5g N, weight %.5g N\n", t, grasp.reaction[2], weight);
     ENSURE(status == VSC_OK);
     ENSURE_NEAR(grasp.reaction[2], -weight, 0.005 * weight);
@@ -84,7 +84,7 @@ static void a_moving_anchor_drags_the_point(void) {
   for (int step = 0; step < 1000; ++step) {  // 2 s at 0.1 m/s: the end follows 0.2 m sideways
     vsc_step_options options = vsc_default_step_options();
     options.substeps = 2;
-    ENSURE(vsc_rod_step(rod, &world, q, v, NULL, dt, &options, NULL) == VSC_OK);
+    ENSURE(vsc_rod_step(rod, &world, q, v, NULL, NULL, dt, &options, NULL) == VSC_OK);
     for (int c = 0; c < 3; ++c) grasp.anchor[c] += dt * grasp.anchor_velocity[c];
   }
   double end[3];

@@ -129,11 +129,19 @@ static found_contact* next_slot(pass* p, found_contact* spare) {
                                                                    : spare;
 }
 
+// 1 if segment a's and segment b's four spheres all sleep deep: their contact cannot change
+// and no point whose forces are watched feels it.
+static inline int segments_asleep(const vsc_rod* rod, int a, int b) {
+  const unsigned char* asleep = rod->sphere_asleep;
+  return rod->asleep_count > 0 && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
+}
+
 static void self_pair(void* context, int earlier, int item) {
   pass* p = (pass*)context;
   vsc_rod* rod = p->rod;
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
+  if (segments_asleep(rod, a, b)) return;
   const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
   if (p->segment) {
     // testing every pair (no lists): a cheap exact rejection first, segments within
@@ -172,6 +180,8 @@ static void sphere_geom(void* context, int i) {
   pass* p = (pass*)context;
   vsc_rod* rod = p->rod;
   const vsc_geom* geom = &p->world->geoms[p->geom];
+  // a sleeping sphere on a static geom stays as it was; a moving body's geom still pushes it
+  if (rod->asleep_count > 0 && rod->sphere_asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
   double r = rod->def.radius;
   const double* x = rod->sphere_xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
@@ -303,6 +313,15 @@ int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
   const found_contact* found = (const found_contact*)rod->found;
   for (int k = 0; k < rod->found_count; ++k) push(&p, &found[k]);
   return p.contacts;
+}
+
+void vsc_rod_visit_contacts(const vsc_rod* rod, void (*visit)(void* data, int rigid, int a, int b, double speed),
+                            void* data) {
+  const found_contact* found = (const found_contact*)rod->found;
+  for (int k = 0; k < rod->found_count; ++k) {
+    const double* r = found[k].relative;
+    visit(data, found[k].rigid, found[k].a, found[k].b, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]));
+  }
 }
 
 // Potential of a penalty spring at depth d > 0 (J): 1/2 k d^2, linear past

@@ -12,6 +12,15 @@
 /// limited where contacts pile up past its explicit limit (vsc_contact_load.h).
 /// The spheres and their velocities must be placed (vsc_place.h). Returns the
 /// number of contacts.
+/// Where control points sleep (rod->asleep_count > 0), the pairs that cannot
+/// matter are not looked for: a sleeping sphere against a static geom, and two
+/// segments whose four spheres all sleep.
 int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q);
+
+/// Each contact the last contact pass found: visit(data, rigid, a, b, speed)
+/// with rigid 1 for sphere a against geom b, 0 for segments a < b, and the
+/// speed of a relative to b at the contact (m/s). Sleeping reads it (vsc_sleep.c).
+void vsc_rod_visit_contacts(const vsc_rod* rod, void (*visit)(void* data, int rigid, int a, int b, double speed),
+                            void* data);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_H

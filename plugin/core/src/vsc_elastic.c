@@ -175,10 +175,13 @@ static void elastic_sample_forces(vsc_rod* rod) {
 }
 
 // Virtual work as a gather: Q_k += sum over samples a of b_k(s_a) F_a, each
-// control point reading its own contiguous range of samples.
+// control point reading its own contiguous range of samples; one asleep deep
+// is held still and unwatched, so its forces are not needed (vsc_sleep.h).
 static void gather_to_control(const vsc_rod* rod, double* Q) {
   const double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  const unsigned char* asleep = rod->asleep_count > 0 ? rod->asleep : NULL;
   for (int k = 0; k < rod->n; ++k) {
+    if (asleep && asleep[k] == VSC_ASLEEP_DEEP) continue;
     int a0 = rod->gather_first[k], count = rod->gather_count[k];
     const double* w = rod->gather_weight + rod->gather_offset[k];
     double sx = 0.0, sy = 0.0, sz = 0.0;

@@ -5,6 +5,7 @@
 #include <stddef.h>
 
 #include "viscera/vsc_band.h"
+#include "viscera/vsc_sleep.h"
 #include "vsc_contact.h"
 #include "vsc_elastic.h"
 #include "vsc_grasp.h"
@@ -50,6 +51,26 @@ void vsc_forces_acceleration(const vsc_step_context* context, const double* q, c
   for (int i = 0; i < 3 * n; ++i) a[i] -= c * v[i];
   for (int k = 0; k < n; ++k)
     if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
+  if (rod->asleep_count > 0) {  // sleeping points are held like pinned ones (vsc_sleep.h) ...
+    const double limit2 = VSC_SLEEP_WAKE_ACCELERATION * VSC_SLEEP_WAKE_ACCELERATION;
+    for (int k = 0; k < n; ++k) {
+      if (!rod->asleep[k]) continue;
+      double* ak = a + 3 * k;
+      if (rod->asleep[k] == VSC_ASLEEP_EDGE) {  // ... and one next to awake points wakes when its forces change
+        double* record = rod->rest + VSC_REST_SIZE * k;
+        double* load = record + VSC_REST_LOAD;
+        if (record[VSC_REST_WATCHED] == 0.0) {
+          load[0] = ak[0];
+          load[1] = ak[1];
+          load[2] = ak[2];
+          record[VSC_REST_WATCHED] = 1.0;
+        }
+        double d0 = ak[0] - load[0], d1 = ak[1] - load[1], d2 = ak[2] - load[2];
+        if (d0 * d0 + d1 * d1 + d2 * d2 > limit2) rod->unbalanced[k] = 1;
+      }
+      ak[0] = ak[1] = ak[2] = 0.0;
+    }
+  }
 }
 
 // A lone evaluation: no friction state, reactions at full weight.

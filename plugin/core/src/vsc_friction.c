@@ -52,7 +52,9 @@ void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const dou
   }
   double k = rod->def.contact_stiffness;
   int spheres = rod->def.collision_sphere_count;
+  const unsigned char* asleep = rod->asleep_count > 0 ? rod->sphere_asleep : NULL;
   for (int i = 0; i < spheres; ++i) {
+    if (asleep && asleep[i]) continue;  // a sleeping sphere's springs keep their stretch until it wakes
     const double* touch = rod->touch + VSC_TOUCH_SIZE * i;
     const double* rigid = touch + VSC_TOUCH_RIGID;
     double unseen[3] = {0.0, 0.0, 0.0};

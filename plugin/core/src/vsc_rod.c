@@ -195,6 +195,7 @@ enum {
   ARRAY_GATHER_FIRST,    // 3n ints: gather_first, gather_count, gather_offset
   ARRAY_PINNED,          // pinned indices (at least 1)
   ARRAY_IS_PINNED,       // n bytes
+  ARRAY_ASLEEP,          // n bytes, 1 byte per sphere, then 2 x n bytes
   ARRAY_COUNT
 };
 
@@ -227,6 +228,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_GATHER_FIRST] = 3.0 * n * sizeof(int);
   bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
   bytes[ARRAY_IS_PINNED] = n;
+  bytes[ARRAY_ASLEEP] = 3.0 * n + spheres;
 }
 
 // Offsets of the arrays in the block (bytes, aligned) and the block's size.
@@ -280,6 +282,10 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
   rod->pinned = (int*)AT(ARRAY_PINNED);
   rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);
+  rod->asleep = (unsigned char*)AT(ARRAY_ASLEEP);
+  rod->sphere_asleep = rod->asleep + def->control_count;
+  rod->moved = rod->sphere_asleep + def->collision_sphere_count;
+  rod->unbalanced = rod->moved + def->control_count;
   #undef AT
   return 0;
 }

@@ -8,6 +8,11 @@
 
 typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact_lists.c
 
+/// A control point's sleep within a step (vsc_sleep.c): awake; asleep within
+/// VSC_SLEEP_REACH of an awake point (its forces are still evaluated, so an
+/// unbalanced one wakes it); asleep deeper (nothing about it is evaluated).
+enum { VSC_AWAKE = 0, VSC_ASLEEP_EDGE = 1, VSC_ASLEEP_DEEP = 2 };
+
 /// A rod (viscera/vsc_rod.h): the definition plus caches derived from it. Owns
 /// all its arrays.
 struct vsc_rod {
@@ -69,6 +74,12 @@ struct vsc_rod {
   int found_capacity;        ///< contacts `found` holds
   double contact_load_unit;  ///< the largest row per unit stiffness at every sphere (1/kg)
   double contact_load_bound; ///< the last pass's largest bound on gamma h (vsc_contact_load.h)
+  unsigned char* asleep;     ///< per control point this step: VSC_AWAKE, VSC_ASLEEP_EDGE or VSC_ASLEEP_DEEP (n; vsc_sleep.c)
+  unsigned char* sphere_asleep;  ///< per sphere, the least asleep of the 4 points it depends on (spheres)
+  int asleep_count;          ///< control points asleep this step (0: the flags above are all 0, unread)
+  unsigned char* moved;      ///< 1 where control point k moved in the last step (n; vsc_sleep.c scratch)
+  unsigned char* unbalanced; ///< 1 where a sleeping edge point's forces changed this step (n)
+  double* rest;              ///< this step's rest records (the host's, VSC_REST_SIZE per point; NULL: none sleeps)
   vsc_basis* tether_basis;   ///< basis of each mesentery tether's abscissa (mesentery_points)
   double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
   void* block;               ///< the one allocation every array above lives in (vsc_rod.c's size table)

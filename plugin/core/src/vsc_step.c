@@ -13,9 +13,10 @@
 #include "vsc_energy.h"
 #include "vsc_friction.h"
 #include "vsc_schemes.h"
+#include "vsc_sleep.h"
 
 vsc_step_options vsc_default_step_options(void) {
-  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0};
+  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0, vsc_default_sleep_options()};
   return options;
 }
 
@@ -93,13 +94,28 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
   return 1;
 }
 
-vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
-                        const vsc_step_options* options, vsc_step_report* report) {
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
+                        double dt, const vsc_step_options* options, vsc_step_report* report) {
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
       !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
     return VSC_ERROR_INVALID_ARGUMENT;
+  int sleeping = rest && o.sleep.enabled;
+  if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||
+                   !(o.sleep.rest_speed >= 0.0) || !(o.sleep.rest_time >= 0.0)))
+    return VSC_ERROR_INVALID_ARGUMENT;
   vsc_step_context context = {rod, world, stick, dt, 0.0, NULL, 0.0};
+  if (report) {
+    report->retries = 0;
+    report->substeps = 0;
+  }
+  // sleeping points held still; a rod asleep everywhere only feels moving bodies, unless they wake it
+  int asleep = vsc_sleep_begin(rod, sleeping ? &o.sleep : NULL, q, rest, v);
+  if (asleep == rod->n) {
+    clear_reactions(world);
+    if (vsc_sleep_rest(&context, &o.sleep, q, rest)) return VSC_OK;
+    vsc_sleep_begin(rod, &o.sleep, q, rest, v);
+  }
   const vsc_scheme* scheme = &vsc_schemes[o.integrator];
   int size = 3 * rod->n, spheres = rod->def.collision_sphere_count;
   for (int i = 0; i < rod->def.pinned_count; ++i) {  // pinned means fixed, whatever the state said
@@ -127,8 +143,12 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
       report->retries = retry;
       report->substeps = substeps;
     }
-    if (attempt(&context, scheme, q, v, substeps) && guard_holds(&g, rod, world, start_q, q, v, &o)) return VSC_OK;
+    if (attempt(&context, scheme, q, v, substeps) && guard_holds(&g, rod, world, start_q, q, v, &o)) {
+      if (sleeping) vsc_sleep_advance(rod, world, &o.sleep, start_q, q, dt, rest);
+      return VSC_OK;
+    }
   }
+  if (sleeping) vsc_sleep_wake_all(rod, start_q, rest);
   // none held: back to the start, at rest
   memcpy(q, start_q, sizeof(double) * size);
   memset(v, 0, sizeof(double) * size);

@@ -6,6 +6,7 @@
 #define VISCERA_VSC_INTEGRATE_H
 
 #include "viscera/vsc_rod.h"
+#include "viscera/vsc_sleep.h"
 
 /// Largest omega h (omega: a mode's angular frequency, h: the substep) that
 /// vsc_stable_substeps (vsc_stability.h) trusts: RK4's limit is 2 sqrt(2) = 2.83,
@@ -55,9 +56,11 @@ typedef struct vsc_step_options {
   double energy_jump_ratio;  ///< a step diverged if the rod's energy grows by more than this times
                              ///< its kinetic + elastic (+ contact) energy at the step start ...
   double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
+  vsc_sleep_options sleep;   ///< which control points sleep (vsc_sleep.h; needs the step's `rest` timers)
 } vsc_step_options;
 
-/// Leapfrog, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2.
+/// Leapfrog, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2,
+/// no sleeping.
 vsc_step_options vsc_default_step_options(void);
 
 /// What a step did.
@@ -66,8 +69,9 @@ typedef struct vsc_step_report {
   int substeps;   ///< substeps of the last attempt
 } vsc_step_report;
 
-/// Advance q (m), v (m/s) and the friction state `stick` (VSC_STICK_SIZE per
-/// sphere, may be NULL) in place by one step dt (s) of options->substeps
+/// Advance q (m), v (m/s), the friction state `stick` (VSC_STICK_SIZE per
+/// sphere, may be NULL) and the rest records `rest` (VSC_REST_SIZE per control
+/// point, may be NULL: none sleeps; see vsc_sleep.h) in place by one step dt (s) of options->substeps
 /// substeps. The world (geom poses, grasp anchors) is frozen over dt. If
 /// world->geom_wrench is set it receives (overwritten, not added) the reaction
 /// on each geom averaged over dt, and each grasp's `reaction` likewise: the
@@ -85,8 +89,15 @@ typedef struct vsc_step_report {
 /// attempt held (report->retries > 0 then says it was recovered). If none
 /// held, q and the friction state are restored to the step start, v is zeroed,
 /// reactions are zeroed and VSC_ERROR_DIVERGED is returned. Either way the
-/// state stays finite. `report` may be NULL.
-vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double dt,
-                        const vsc_step_options* options, vsc_step_report* report);
+/// state stays finite, and every control point wakes. `report` may be NULL.
+///
+/// Sleeping (options->sleep enabled, `rest` given): points whose record says
+/// they sleep are held still this step; the records then advance and the
+/// step's motions and contacts wake points (vsc_sleep.h). A rod asleep
+/// everywhere only looks for its contacts with moving bodies' geoms, pushes
+/// them, and returns unless one wakes it. VSC_ERROR_INVALID_ARGUMENT if
+/// sleeping is asked of the consistent mass matrix or the implicit integrator.
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
+                        double dt, const vsc_step_options* options, vsc_step_report* report);
 
 #endif  // VISCERA_VSC_INTEGRATE_H

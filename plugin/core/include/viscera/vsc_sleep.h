@@ -1,0 +1,82 @@
+// Sleeping: control points at rest and untouched stop being integrated, the
+// way a rigid-body engine puts resting bodies to sleep, but per control point
+// of one spline, so that a tool moving one loop leaves the rest of the bowel
+// asleep. The host keeps a rest record per control point (VSC_REST_SIZE
+// numbers: seconds at rest, then where its rest began); vsc_rod_step
+// (vsc_integrate.h) reads and advances it.
+//
+// - A control point is at rest while it stays within rest_speed x rest_time
+//   of where its rest began (its mean speed below `rest_speed`: a contact's
+//   chatter, micrometres at the penalty's frequency, is rest); at rest for
+//   `rest_time` it sleeps: its velocity is zero and it is held where it is,
+//   like a pinned point, so its awake neighbours still feel it.
+// - What sleeps deep (further than 3 points from an awake one) costs nothing:
+//   its contacts with static geoms and between such spheres are not looked
+//   for, its elastic forces are not gathered,
+//   and a rod asleep everywhere skips the step but for its contacts with
+//   moving bodies' geoms (those still push and feel it).
+// - It wakes (its rest starts over where it is) when an awake control point
+//   within the spline's reach (3 points each way) moves (its mean speed over a
+//   step at least `rest_speed`); when one of its spheres touches a geom that
+//   moves at all (faster than VSC_SLEEP_GEOM_SPEED_SHARE x `rest_speed`: a
+//   support sliding away slowly must not leave it hanging), or a segment of
+//   the rod whose points moved; when a jaw holds it; when, next to awake
+//   points, the forces on it change; and, in the host, when gravity changes
+//   or on a reset.
+// Sleeping needs the lumped mass matrix and an explicit integrator: the
+// consistent matrix couples every point to its neighbours' accelerations and
+// the implicit step solves for all of them, so neither can hold part of the
+// rod still without a new factorisation.
+#ifndef VISCERA_VSC_SLEEP_H
+#define VISCERA_VSC_SLEEP_H
+
+/// When control points sleep.
+typedef struct vsc_sleep_options {
+  int enabled;        ///< 1: points at rest sleep; 0: every point is integrated every step
+  double rest_speed;  ///< a point whose mean speed over rest_time is below this is at rest; a geom
+                      ///< faster than this wakes what it touches (m/s)
+  double rest_time;   ///< at rest this long, a point sleeps (s)
+} vsc_sleep_options;
+
+/// Disabled; 5 mm/s and 0.25 s when enabled.
+vsc_sleep_options vsc_default_sleep_options(void);
+
+/// A geom touching a sleeping sphere wakes it when the geom's surface moves
+/// faster than this share of rest_speed (50 um/s at the defaults).
+#define VSC_SLEEP_GEOM_SPEED_SHARE 0.01
+
+/// A sleeping control point next to awake ones (within VSC_SLEEP_REACH) wakes
+/// when the forces on it change: held free, it would accelerate this much
+/// faster (m/s^2) than when it came to lie next to them. Its awake neighbours
+/// may settle into a new shape slowly, below rest_speed, and load it (a loop
+/// whose support sank away, hanging from sleeping sides). Measured from that
+/// moment, not from zero: a pile's penalty contacts never balance exactly, and
+/// what they leave over is no reason to wake.
+#define VSC_SLEEP_WAKE_ACCELERATION 10.0
+
+/// Control points either side of a point whose motion wakes it: the spline's
+/// reach (a sample depends on 4 consecutive points, a spring on 2 samples).
+#define VSC_SLEEP_REACH 3
+
+/// A rest record, VSC_REST_SIZE numbers per control point: the time it has
+/// been at rest (s); where its rest began (m, 3); and, asleep next to awake
+/// points, the acceleration its forces gave it when it came to lie there
+/// (m/s^2, 3) and 1 once that is taken (else 0).
+enum {
+  VSC_REST_TIME = 0,
+  VSC_REST_ANCHOR = 1,
+  VSC_REST_LOAD = 4,
+  VSC_REST_WATCHED = 7,
+  VSC_REST_SIZE = 8
+};
+
+/// Every control point awake, its rest beginning at q (m, 3n): the record of a
+/// reset (rest: VSC_REST_SIZE per point).
+void vsc_rest_wake_all(int control_count, const double* q, double* rest);
+
+/// 1 if a control point at rest for `time_at_rest` (s) sleeps under `options`.
+static inline int vsc_sleeps(const vsc_sleep_options* options, double time_at_rest) {
+  return options->enabled && time_at_rest >= options->rest_time;
+}
+
+#endif  // VISCERA_VSC_SLEEP_H

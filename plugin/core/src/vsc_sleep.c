@@ -1,0 +1,204 @@
+// Sleeping (see viscera/vsc_sleep.h): the flags a step reads, the rod asleep
+// everywhere, and the rest records' advance with every rule that wakes a point.
+#include "vsc_sleep.h"
+
+#include <string.h>
+
+#include "viscera/vsc_grasp.h"
+#include "viscera/vsc_spline.h"
+#include "vsc_contact.h"
+#include "vsc_place.h"
+
+vsc_sleep_options vsc_default_sleep_options(void) {
+  vsc_sleep_options options = {0, 0.005, 0.25};
+  return options;
+}
+
+// Control point k's rest starts over at its position q_k (m), unwatched.
+static void restart_rest(double* rest, const double* q, int k) {
+  double* r = rest + VSC_REST_SIZE * k;
+  memset(r, 0, sizeof(double) * VSC_REST_SIZE);
+  memcpy(r + VSC_REST_ANCHOR, q + 3 * k, sizeof(double) * 3);
+}
+
+void vsc_rest_wake_all(int control_count, const double* q, double* rest) {
+  for (int k = 0; k < control_count; ++k) restart_rest(rest, q, k);
+}
+
+// 1 if point k at q (m) is within rest_speed x rest_time of where its rest began.
+static int within_rest(const vsc_sleep_options* options, const double* q, const double* rest, int k) {
+  const double *x = q + 3 * k, *r = rest + VSC_REST_SIZE * k + VSC_REST_ANCHOR;
+  double dx = x[0] - r[0], dy = x[1] - r[1], dz = x[2] - r[2], reach = options->rest_speed * options->rest_time;
+  return dx * dx + dy * dy + dz * dz < reach * reach;
+}
+
+int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double* q, double* rest, double* v) {
+  int n = rod->n, spheres = rod->def.collision_sphere_count, count = 0;
+  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(n + spheres));
+  rod->asleep_count = 0;
+  rod->rest = NULL;
+  if (!rest || !options || !options->enabled) return 0;
+  for (int k = 0; k < n; ++k) {
+    int asleep = vsc_sleeps(options, rest[VSC_REST_SIZE * k + VSC_REST_TIME]);
+    if (asleep && !within_rest(options, q, rest, k)) {  // moved by the host (a state written): awake there
+      restart_rest(rest, q, k);
+      asleep = 0;
+    }
+    rod->asleep[k] = (unsigned char)asleep;
+    count += asleep;
+  }
+  rod->rest = rest;
+  if (count == 0) return 0;
+  rod->asleep_count = count;
+  memset(rod->unbalanced, 0, (size_t)n);
+  // asleep within reach of an awake point: at the edge, its forces watched; deeper: unwatched
+  for (int k = 0; k < n; ++k)
+    if (rod->asleep[k]) rod->asleep[k] = VSC_ASLEEP_DEEP;
+  for (int pass = 0; pass < 2; ++pass) {  // awake points mark their sleeping neighbours on either side
+    int last_awake = -VSC_SLEEP_REACH - 1;
+    for (int i = 0; i < n; ++i) {
+      int k = pass ? n - 1 - i : i;
+      if (!rod->asleep[k])
+        last_awake = i;
+      else if (i - last_awake <= VSC_SLEEP_REACH)
+        rod->asleep[k] = VSC_ASLEEP_EDGE;
+    }
+  }
+  for (int k = 0; k < n; ++k) {
+    if (rod->asleep[k]) v[3 * k] = v[3 * k + 1] = v[3 * k + 2] = 0.0;
+    if (rod->asleep[k] != VSC_ASLEEP_EDGE) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;  // a new edge, a new load
+  }
+  for (int i = 0; i < spheres; ++i) {  // a sphere sleeps as the least asleep of the 4 points it depends on
+    const unsigned char* a = rod->asleep + rod->sphere_basis[i].first;
+    unsigned char least = a[0] < a[1] ? a[0] : a[1], later = a[2] < a[3] ? a[2] : a[3];
+    rod->sphere_asleep[i] = least < later ? least : later;
+  }
+  return count;
+}
+
+void vsc_sleep_wake_all(vsc_rod* rod, const double* q, double* rest) {
+  if (rest) vsc_rest_wake_all(rod->n, q, rest);
+  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
+  rod->asleep_count = 0;
+}
+
+typedef struct waking {
+  const vsc_rod* rod;
+  const vsc_sleep_options* options;
+  const double* q;
+  double* rest;
+  int woken;  // sleeping points woken
+} waking;
+
+// The sleeping ones of the 4 control points sphere `sphere` depends on wake.
+static void wake_sphere(waking* w, int sphere) {
+  const unsigned char* asleep = w->rod->asleep;
+  int first = w->rod->sphere_basis[sphere].first;
+  for (int k = first; k < first + VSC_SPLINE_SUPPORT; ++k)
+    if (asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0) {
+      restart_rest(w->rest, w->q, k);
+      w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] = -1.0;  // woken this step (set to 0 once every rule has read the flags)
+      ++w->woken;
+    }
+}
+
+// 1 if a point sphere `sphere` depends on moved this step.
+static int sphere_moved(const vsc_rod* rod, int sphere) {
+  const unsigned char* moved = rod->moved + rod->sphere_basis[sphere].first;
+  return moved[0] | moved[1] | moved[2] | moved[3];
+}
+
+// A contact wakes a sleeping side (a sphere whose 4 points all sleep) when the
+// other moves: a geom whose surface moves at all, a segment whose points
+// moved. A side partly awake moves with its awake points.
+static void wake_by_contact(void* data, int rigid, int a, int b, double speed) {
+  waking* w = (waking*)data;
+  const vsc_rod* rod = w->rod;
+  const unsigned char* asleep = rod->sphere_asleep;
+  if (rigid) {
+    if (asleep[a] && speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed) wake_sphere(w, a);
+    return;
+  }
+  if ((asleep[a] || asleep[a + 1]) && (sphere_moved(rod, b) || sphere_moved(rod, b + 1))) {
+    wake_sphere(w, a);
+    wake_sphere(w, a + 1);
+  }
+  if ((asleep[b] || asleep[b + 1]) && (sphere_moved(rod, a) || sphere_moved(rod, a + 1))) {
+    wake_sphere(w, b);
+    wake_sphere(w, b + 1);
+  }
+}
+
+// Touches and holds: contacts whose partner moves, and every point a jaw holds.
+static void wake_touched(waking* w, const vsc_world* world) {
+  const vsc_rod* rod = w->rod;
+  vsc_rod_visit_contacts(rod, wake_by_contact, w);
+  for (int g = 0; g < world->grasp_count; ++g) {
+    vsc_basis b = vsc_spline_basis(rod->n, world->grasps[g].abscissa);
+    for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k) {
+      w->woken += rod->asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0;
+      restart_rest(w->rest, w->q, k);  // held: never at rest
+    }
+  }
+  for (int k = 0; k < rod->n; ++k)
+    if (w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] < 0.0) w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] = 0.0;
+}
+
+int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, const double* q, double* rest) {
+  vsc_rod* rod = context->rod;
+  const vsc_world* world = context->world;
+  double* Q = rod->stage;  // scratch: the held rod's forces are not used
+  memset(Q, 0, sizeof(double) * 3 * (size_t)rod->n);
+  memset(rod->moved, 0, (size_t)rod->n);
+  context->wrench_weight = 1.0;
+  context->substep = 0.0;
+  rod->found_count = 0;
+  rod->touched = world->geom_count > 0;  // sleeping spheres never touch each other
+  if (rod->touched) {
+    vsc_rod_update_spheres(rod, q, NULL);  // held: the spheres' velocities are zero
+    memset(rod->sphere_velocity, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
+    vsc_rod_add_contact_forces(context, Q);
+  }
+  waking w = {rod, options, q, rest, 0};
+  wake_touched(&w, world);
+  return w.woken == 0;
+}
+
+void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_options* options, const double* start_q,
+                       const double* q, double dt, double* rest) {
+  int n = rod->n;
+  const unsigned char* asleep = rod->asleep;  // all 0 when nothing sleeps
+  unsigned char* moved = rod->moved;
+  double step_reach = options->rest_speed * dt;
+  for (int k = 0; k < n; ++k) {
+    moved[k] = 0;
+    if (asleep[k]) continue;
+    // moved: its mean speed over the step reached rest_speed (a contact's chatter does not) ...
+    const double *x = q + 3 * k, *x0 = start_q + 3 * k;
+    double dx = x[0] - x0[0], dy = x[1] - x0[1], dz = x[2] - x0[2];
+    moved[k] = dx * dx + dy * dy + dz * dz >= step_reach * step_reach;
+    // ... or, creeping slower, it left the reach of where its rest began; within it, its rest goes on
+    if (within_rest(options, q, rest, k)) {
+      rest[VSC_REST_SIZE * k + VSC_REST_TIME] += dt;
+    } else {
+      restart_rest(rest, q, k);
+      moved[k] = 1;
+    }
+  }
+  waking w = {rod, options, q, rest, 0};
+  if (rod->asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
+    for (int k = 0; k < n; ++k)  // and one whose forces no longer balance wakes
+      if (rod->unbalanced[k]) restart_rest(rest, q, k);
+    int last_moved = -VSC_SLEEP_REACH - 1;
+    for (int k = 0; k < n; ++k) {
+      if (moved[k]) {
+        last_moved = k;
+        for (int j = k - 1; j >= 0 && j >= k - VSC_SLEEP_REACH; --j)
+          if (asleep[j]) restart_rest(rest, q, j);
+      } else if (asleep[k] && k - last_moved <= VSC_SLEEP_REACH) {
+        restart_rest(rest, q, k);
+      }
+    }
+  }
+  wake_touched(&w, world);
+}
