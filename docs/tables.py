@@ -108,7 +108,9 @@ def fall() -> str:
     return _rows(["", "wall s per simulated s", "length error"], out)
 
 
-CAVITY_LABELS = {"full": "full: 250 points, self-collision, tools, grasping (leapfrog, lumped mass, 3 substeps)",
+CAVITY_LABELS = {"full": "full: 250 points, self-collision, tools, grasping (leapfrog, lumped mass, 3 substeps, "
+                         "sleeping)",
+                 "sleep off": "the same with `sleep` 0: every point integrated every step",
                  "RK4, consistent mass": "RK4, consistent mass (the previous defaults, 2 substeps)",
                  "consistent mass": "leapfrog, consistent mass (4 substeps)",
                  "spheres 1.5 r": "collision spheres 1.5 r apart (161, not 241)",
@@ -129,6 +131,25 @@ def cavity_speed() -> str:
             row += [f"{r['wall_s_per_sim_s']:.3f}", f"{r['p50_ms']:.3f}", f"{r['p99_ms']:.3f}", f"{r['p999_ms']:.3f}"]
         out.append(row)
     return _rows(header, out)
+
+
+SLEEP_LOADS = {"gesture": "the clearing gesture (clear_area, seed 0) replayed",
+               "rest": "its scene at rest, tools withdrawn",
+               "sweep": "the vigorous sweep (both tools through the bowel)"}
+
+
+def sleep_savings() -> str:
+    """Sleeping on against off, from docs/bench/cavity.json (python python/tools/bench_cavity.py
+    --json docs/bench/cavity.json)."""
+    data = _json("bench/cavity.json")
+    rows = []
+    for load, entry in data["loads"].items():
+        on, off = entry["variants"]["full"], entry["variants"]["sleep off"]
+        rows.append([SLEEP_LOADS.get(load, load), f"{off['wall_s_per_sim_s']:.4f}", f"{on['wall_s_per_sim_s']:.4f}",
+                     f"**{off['wall_s_per_sim_s'] / on['wall_s_per_sim_s']:.1f}x**", f"{off['p99_ms']:.3f}",
+                     f"{on['p99_ms']:.3f}"])
+    return _rows(["load (20 s, 2 ms steps)", "sleep off: wall s / sim s", "sleep on", "cheaper",
+                  "p99 step off (ms)", "p99 on (ms)"], rows)
 
 
 def task_rates() -> str:

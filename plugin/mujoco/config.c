@@ -349,7 +349,6 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   c->auto_substeps = !given[VSC_KEY_substeps];
   // sleeping holds points still, which the consistent matrix and the implicit solve cannot do in part
   int can_sleep = d->lumped_mass && c->step.integrator != VSC_INTEGRATOR_IMPLICIT;
-  if (!given[VSC_KEY_sleep]) c->step.sleep.enabled = can_sleep;
   if (c->step.sleep.enabled && !can_sleep)
     return fail(r, "attribute 'sleep' = '1' needs 'mass_matrix' = 'lumped' and an explicit integrator, not "
                 "'mass_matrix' = '%s' with 'integrator' = '%s'", d->lumped_mass ? "lumped" : "consistent",

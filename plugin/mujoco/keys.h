@@ -127,11 +127,12 @@
   X(divergence_retries, VSC_KEY_KIND_COUNT, FIELD(step.retries), 0, 10, "count", CORE, \
     "a diverged step is retried from its start with twice the substeps, up to this many times (4: up to " \
     "16x) and at most 1024 substeps, before it is restored") \
-  X(sleep, VSC_KEY_KIND_COUNT, FIELD(step.sleep.enabled), 0, 1, "0 or 1", \
-    DERIVED("1 with `mass_matrix` `lumped` and an explicit integrator, else 0"), \
-    "control points at rest (slower than `sleep_speed` for `sleep_time`) and untouched stop being integrated " \
-    "until a moving neighbour within 3 points, a moving geom or part of the intestine touching them, a jaw, a " \
-    "change of gravity or a reset wakes them (see [sleeping](model.md#sleeping)); needs `mass_matrix` " \
+  X(sleep, VSC_KEY_KIND_COUNT, FIELD(step.sleep.enabled), 0, 1, "0 or 1", VALUE("0"), \
+    "control points at rest (slower than `sleep_speed` on average over `sleep_time`) and untouched stop " \
+    "being integrated until a moving neighbour within 3 points, a geom or part of the intestine moving " \
+    "against them, a jaw, a change in their load, of gravity or a reset wakes them (see " \
+    "[sleeping](model.md#sleeping)); it stops what creeps slower than `sleep_speed`, so it is off unless " \
+    "a scene turns it on where it is measured: the shipped cavity and its tasks do. Needs `mass_matrix` " \
     "`lumped` and an explicit integrator") \
   X(sleep_speed, VSC_KEY_KIND_NONNEGATIVE, FIELD(step.sleep.rest_speed), 0, 0, "m/s", CORE, \
     "a control point slower than this is at rest; a partner faster than this wakes it") \

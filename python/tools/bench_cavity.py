@@ -20,7 +20,8 @@ Peers, run in the same process on the same controls:
     evaluation per 2 ms step; sleeping on);
   - sleep off: the same with `sleep` 0, every control point integrated every step;
   - RK4, consistent mass: the previous defaults (2 RK4 substeps of 4
-    evaluations; same controls, so this compares cost, not outcome);
+    evaluations; same controls, so this compares cost, not outcome; the
+    consistent matrix and the implicit step below cannot sleep);
   - consistent mass: leapfrog with the paper's band mass matrix (4 substeps:
     its highest frequencies are higher);
   - spheres 1.5 r: collision spheres 18.75 mm apart instead of 12.5 mm (161
@@ -99,10 +100,10 @@ def sweep_controls(model: mujoco.MjModel, duration: float = 20.0) -> np.ndarray:
 
 # config keys each variant adds to the intestine's instance
 VARIANT_CONFIG = {"sleep off": {"sleep": "0"},
-                  "RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent"},
-                  "consistent mass": {"mass_matrix": "consistent"},
+                  "RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent", "sleep": "0"},
+                  "consistent mass": {"mass_matrix": "consistent", "sleep": "0"},
                   "spheres 1.5 r": {"collision_spheres": "161"},
-                  "implicit, 1 substep": {"integrator": "implicit", "substeps": "1"},
+                  "implicit, 1 substep": {"integrator": "implicit", "substeps": "1", "sleep": "0"},
                   "no self-collision": {"self_collision": "0"}}
 
 

@@ -145,7 +145,10 @@ def settle(scene: pathlib.Path, duration: float, quiet: bool = False, layout: in
 
 
 def _with_settling_physics(text: str) -> str:
-    """The scene text with SETTLING_PHYSICS's keys added to the intestine where it sets none."""
+    """The scene text with SETTLING_PHYSICS's keys added to the intestine where it sets none, and
+    sleeping off (it settles to rest, not to below the sleep speed; RK4 with the consistent
+    matrix cannot sleep anyway)."""
+    text = re.sub(r'<config key="sleep" value="[^"]*"/>', '<config key="sleep" value="0"/>', text)
     added = "".join(f'<config key="{key}" value="{value}"/>' for key, value in SETTLING_PHYSICS.items()
                     if f'<config key="{key}"' not in text)
     text, count = re.subn(r'(<instance name="[^"]*">)', lambda match: match.group(1) + added, text, count=1)

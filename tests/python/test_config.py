@@ -124,8 +124,9 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.control_count == 250
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
     assert gut.sphere_count == 321  # 4 m / 12.5 mm + 1: spaced one radius apart
-    # positions, velocities, divergence count, a wrench per body, friction state per sphere
-    assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321
+    # positions, velocities, divergence and recovery counts, a wrench per body, friction state per
+    # sphere, a rest record per control point, the gravity they were counted under
+    assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321 + 8 * 250 + 3
 
 
 def test_a_million_control_points_load():

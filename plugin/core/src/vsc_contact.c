@@ -315,12 +315,12 @@ int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
   return p.contacts;
 }
 
-void vsc_rod_visit_contacts(const vsc_rod* rod, void (*visit)(void* data, int rigid, int a, int b, double speed),
-                            void* data) {
+void vsc_rod_visit_contacts(const vsc_rod* rod,
+                            void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data) {
   const found_contact* found = (const found_contact*)rod->found;
   for (int k = 0; k < rod->found_count; ++k) {
     const double* r = found[k].relative;
-    visit(data, found[k].rigid, found[k].a, found[k].b, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]));
+    visit(data, found[k].rigid, found[k].a, found[k].b, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), found[k].depth);
   }
 }
 

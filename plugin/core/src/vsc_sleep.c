@@ -109,14 +109,17 @@ static int sphere_moved(const vsc_rod* rod, int sphere) {
 }
 
 // A contact wakes a sleeping side (a sphere whose 4 points all sleep) when the
-// other moves: a geom whose surface moves at all, a segment whose points
-// moved. A side partly awake moves with its awake points.
-static void wake_by_contact(void* data, int rigid, int a, int b, double speed) {
+// other moves: a geom whose surface moves at all or that presses it deeper than
+// a sleeping sphere may be pressed (a mocap body moves with no velocity), a
+// segment whose points moved. A side partly awake moves with its awake points.
+static void wake_by_contact(void* data, int rigid, int a, int b, double speed, double depth) {
   waking* w = (waking*)data;
   const vsc_rod* rod = w->rod;
   const unsigned char* asleep = rod->sphere_asleep;
   if (rigid) {
-    if (asleep[a] && speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed) wake_sphere(w, a);
+    if (asleep[a] && (speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed ||
+                      depth > VSC_SLEEP_WAKE_DEPTH * rod->def.radius))
+      wake_sphere(w, a);
     return;
   }
   if ((asleep[a] || asleep[a + 1]) && (sphere_moved(rod, b) || sphere_moved(rod, b + 1))) {

@@ -19,8 +19,9 @@
 //   within the spline's reach (3 points each way) moves (its mean speed over a
 //   step at least `rest_speed`); when one of its spheres touches a geom that
 //   moves at all (faster than VSC_SLEEP_GEOM_SPEED_SHARE x `rest_speed`: a
-//   support sliding away slowly must not leave it hanging), or a segment of
-//   the rod whose points moved; when a jaw holds it; when, next to awake
+//   support sliding away slowly must not leave it hanging) or presses it
+//   deeper than VSC_SLEEP_WAKE_DEPTH radii (a mocap body moves without a
+//   velocity), or a segment of the rod whose points moved; when a jaw holds it; when, next to awake
 //   points, the forces on it change; and, in the host, when gravity changes
 //   or on a reset.
 // Sleeping needs the lumped mass matrix and an explicit integrator: the
@@ -53,6 +54,11 @@ vsc_sleep_options vsc_default_sleep_options(void);
 /// moment, not from zero: a pile's penalty contacts never balance exactly, and
 /// what they leave over is no reason to wake.
 #define VSC_SLEEP_WAKE_ACCELERATION 10.0
+
+/// A geom pressing a sleeping sphere deeper than this share of the radius
+/// wakes it, moving or not (1.25 mm for the 12.5 mm tube; a contact's
+/// ordinary depth at rest is a few tenths of a millimetre).
+#define VSC_SLEEP_WAKE_DEPTH 0.1
 
 /// Control points either side of a point whose motion wakes it: the spline's
 /// reach (a sample depends on 4 consecutive points, a spring on 2 samples).
