@@ -80,6 +80,13 @@ static vsc_step_options sleeping_options(void) {
 
 static void fresh_rest(const double* q, double* rest) { vsc_rest_wake_all(N, q, rest); }
 
+// The largest coordinate difference between two sets of control points (m).
+static double largest_difference(const double* a, const double* b) {
+  double largest = 0.0;
+  for (int i = 0; i < 3 * N; ++i) largest = fabs(a[i] - b[i]) > largest ? fabs(a[i] - b[i]) : largest;
+  return largest;
+}
+
 static int asleep_count(const double* rest, const vsc_step_options* o) {
   int count = 0;
   for (int k = 0; k < N; ++k) count += rest[VSC_REST_SIZE * k] >= o->sleep.rest_time;
@@ -94,27 +101,47 @@ static void settle(vsc_rod* rod, vsc_world* world, double* q, double* v, double*
   ENSURE(asleep_count(rest, o) == N);
 }
 
+// The rod asleep on the floor, with everything a step needs.
+typedef struct bed {
+  vsc_rod* rod;
+  double q[3 * N], v[3 * N], rest[VSC_REST_SIZE * N], stick[VSC_STICK_SIZE * 81];
+  vsc_geom ground;
+  vsc_world world;
+  vsc_step_options options;
+} bed;
+
+static void lie_down(bed* b) {
+  memset(b, 0, sizeof(*b));
+  b->rod = rod_on(b->q, RADIUS);
+  vsc_stick_clear(b->stick, 81);
+  fresh_rest(b->q, b->rest);
+  b->ground = floor_plane();
+  vsc_world world = {{0, 0, -9.81}, &b->ground, 1};
+  b->world = world;
+  b->options = sleeping_options();
+  settle(b->rod, &b->world, b->q, b->v, b->stick, b->rest, &b->options);
+}
+
+// One step of the bed's rod under `o` (NULL: the bed's options).
+static vsc_status step_bed(bed* b, const vsc_step_options* o) {
+  return vsc_rod_step(b->rod, &b->world, b->q, b->v, b->stick, b->rest, DT, o ? o : &b->options, NULL);
+}
+
 static void a_resting_rod_sleeps_where_it_lies(void) {
-  double q[3 * N], v[3 * N] = {0}, rest[VSC_REST_SIZE * N], stick[VSC_STICK_SIZE * 81];
-  vsc_rod* rod = rod_on(q, RADIUS);
-  vsc_stick_clear(stick, 81);
-  fresh_rest(q, rest);
-  vsc_geom ground = floor_plane();
-  vsc_world world = {{0, 0, -9.81}, &ground, 1};
-  vsc_step_options o = sleeping_options();
-  settle(rod, &world, q, v, stick, rest, &o);
+  static bed b;
+  lie_down(&b);
   // on the floor at its radius, within the penalty's sag m g / (k spheres)
-  for (int k = 0; k < N; ++k) ENSURE_NEAR(q[3 * k + 2], RADIUS, 0.002);
+  for (int k = 0; k < N; ++k) ENSURE_NEAR(b.q[3 * k + 2], RADIUS, 0.002);
   double held[3 * N];
-  memcpy(held, q, sizeof(held));
-  for (int step = 0; step < 200; ++step) ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
-  ENSURE(memcmp(held, q, sizeof(held)) == 0);  // asleep: not a bit moved
-  for (int i = 0; i < 3 * N; ++i) ENSURE(v[i] == 0.0);
+  memcpy(held, b.q, sizeof(held));
+  for (int step = 0; step < 200; ++step) ENSURE(step_bed(&b, NULL) == VSC_OK);
+  ENSURE(memcmp(held, b.q, sizeof(held)) == 0);  // asleep: not a bit moved
+  for (int i = 0; i < 3 * N; ++i) ENSURE(b.v[i] == 0.0);
   // gravity is the host's to watch (a new gravity wakes every point there); disabled, the rod sleeps on
-  vsc_step_options off = o;
+  vsc_step_options off = b.options;
   off.sleep.enabled = 0;
-  ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &off, NULL) == VSC_OK);
-  vsc_rod_destroy(rod);
+  ENSURE(step_bed(&b, &off) == VSC_OK);
+  vsc_rod_destroy(b.rod);
 }
 
 // The settled rod, then a 2 cm ball from `from` to `to` (m) over `steps`
@@ -167,9 +194,7 @@ static void a_ball_pressing_wakes_only_where_it_presses(void) {
     ENSURE(rest[VSC_REST_SIZE * k] >= o.rest_time);
     ENSURE(rest[VSC_REST_SIZE * (N - 1 - k)] >= o.rest_time);
   }
-  double largest = 0.0;          // where it left the rod: as without sleeping
-  for (int i = 0; i < 3 * N; ++i) largest = fabs(q[i] - q_awake[i]) > largest ? fabs(q[i] - q_awake[i]) : largest;
-  ENSURE(largest < 0.001);
+  ENSURE(largest_difference(q, q_awake) < 0.001);  // where it left the rod: as without sleeping
 }
 
 // A ball rolling across the middle along y pushes it aside, which pulls the
@@ -182,8 +207,7 @@ static void a_ball_pushing_aside_moves_it_as_without_sleep(void) {
   ball_run(from, to, 400, 500, 0, q_awake, rest);
   ENSURE(depth < 0.3 * RADIUS);
   ENSURE(q[3 * (N / 2) + 1] > 0.01);  // the middle went along with the ball
-  double largest = 0.0;
-  for (int i = 0; i < 3 * N; ++i) largest = fabs(q[i] - q_awake[i]) > largest ? fabs(q[i] - q_awake[i]) : largest;
+  double largest = largest_difference(q, q_awake);
   if (!(largest < 0.003)) fprintf(stderr, "pushed aside: sleeping moved a point %g m from where it ends awake\n", largest);
   ENSURE(largest < 0.003);
 }
@@ -270,34 +294,27 @@ static void sleeping_sides_feel_a_loop_sag_between_them(void) {
   double sleeping = sag_into_a_gap(1, q), awake = sag_into_a_gap(0, q_awake);
   ENSURE(awake < 2.0 * RADIUS);  // it sagged into the gap, down to the floor
   ENSURE_NEAR(sleeping, awake, 0.002);
-  double largest = 0.0;
-  for (int i = 0; i < 3 * N; ++i) largest = fabs(q[i] - q_awake[i]) > largest ? fabs(q[i] - q_awake[i]) : largest;
+  double largest = largest_difference(q, q_awake);
   if (!(largest < 0.04)) fprintf(stderr, "sagging: a point %g m from where it ends awake\n", largest);
   ENSURE(largest < 0.04);
 }
 
 static void a_jaw_wakes_what_it_holds(void) {
-  double q[3 * N], v[3 * N] = {0}, rest[VSC_REST_SIZE * N], stick[VSC_STICK_SIZE * 81];
-  vsc_rod* rod = rod_on(q, RADIUS);
-  vsc_stick_clear(stick, 81);
-  fresh_rest(q, rest);
-  vsc_geom ground = floor_plane();
-  vsc_world world = {{0, 0, -9.81}, &ground, 1};
-  vsc_step_options o = sleeping_options();
-  settle(rod, &world, q, v, stick, rest, &o);
+  static bed b;
+  lie_down(&b);
   // a jaw takes the middle and lifts it at 0.1 m/s for 0.3 s
   vsc_grasp grasp = {0.5, {0.5, 0.0, RADIUS}, {0.0, 0.0, 0.1}, 1000.0, 2.0, {0, 0, 0}};
-  world.grasps = &grasp;
-  world.grasp_count = 1;
+  b.world.grasps = &grasp;
+  b.world.grasp_count = 1;
   for (int step = 0; step < 150; ++step) {
     grasp.anchor[2] = RADIUS + 0.1 * (step + 1) * DT;
-    ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
+    ENSURE(step_bed(&b, NULL) == VSC_OK);
   }
   vsc_basis at = vsc_spline_basis(N, 0.5);
   double held[3];
-  vsc_basis_point(&at, q, held);
+  vsc_basis_point(&at, b.q, held);
   ENSURE_NEAR(held[2], grasp.anchor[2], 0.01);  // it followed the jaw (within the hold's stretch)
-  vsc_rod_destroy(rod);
+  vsc_rod_destroy(b.rod);
 }
 
 static void sleeping_needs_the_lumped_matrix_and_an_explicit_step(void) {
