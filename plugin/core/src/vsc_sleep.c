@@ -190,7 +190,7 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
   }
   waking w = {rod, options, q, rest, 0};
   if (rod->asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
-    for (int k = 0; k < n; ++k)  // and one whose forces no longer balance wakes
+    for (int k = 0; k < n; ++k)  // and one at the edge whose forces changed wakes
       if (rod->unbalanced[k]) restart_rest(rest, q, k);
     int last_moved = -VSC_SLEEP_REACH - 1;
     for (int k = 0; k < n; ++k) {
