@@ -146,9 +146,8 @@ def sleep_savings() -> str:
     for load, entry in data["loads"].items():
         on, off = entry["variants"]["full"], entry["variants"]["sleep off"]
         rows.append([SLEEP_LOADS.get(load, load), f"{off['wall_s_per_sim_s']:.4f}", f"{on['wall_s_per_sim_s']:.4f}",
-                     f"**{off['wall_s_per_sim_s'] / on['wall_s_per_sim_s']:.1f}x**", f"{off['p99_ms']:.3f}",
-                     f"{on['p99_ms']:.3f}"])
-    return _rows(["load (20 s, 2 ms steps)", "sleep off: wall s / sim s", "sleep on", "cheaper",
+                     f"**{data['sleep_savings'][load]:.1f}x**", f"{off['p99_ms']:.3f}", f"{on['p99_ms']:.3f}"])
+    return _rows(["load (20 s, 2 ms steps)", "sleep off: wall s / sim s", "sleep on", "cheaper (median of runs' ratios)",
                   "p99 step off (ms)", "p99 on (ms)"], rows)
 
 

@@ -282,7 +282,8 @@ static void find_contacts(pass* p) {
     return;
   }
   reserve(rod, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
-  if (rod->def.self_collision) {
+  int all_asleep = rod->asleep_count == rod->n;  // then only moving bodies' geoms can touch it
+  if (rod->def.self_collision && !all_asleep) {
     double contact = 2.0 * rod->def.radius * SKIP_SLACK;
     const double* moved = l->segment_moved;
     for (int k = 0; k < l->self_count; ++k) {
@@ -296,6 +297,7 @@ static void find_contacts(pass* p) {
   double contact = rod->def.radius * SKIP_SLACK;
   for (int k = 0; k < l->geom_count; ++k) {
     int g = l->geom_pairs[2 * k], i = l->geom_pairs[2 * k + 1];
+    if (all_asleep && world->geoms[g].is_static) continue;
     if (l->geom_distance[k] - l->geom_moved[i] - shift[g] > contact) continue;
     p->geom = g;
     sphere_geom(p, i);

@@ -51,6 +51,12 @@ int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double
   if (count == 0) return 0;
   rod->asleep_count = count;
   memset(rod->unbalanced, 0, (size_t)n);
+  if (count == n) {  // asleep everywhere (the common case at rest): all deep, held, nothing watched
+    memset(v, 0, sizeof(double) * 3 * (size_t)n);
+    memset(rod->asleep, VSC_ASLEEP_DEEP, (size_t)(n + spheres));
+    for (int k = 0; k < n; ++k) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;
+    return count;
+  }
   // asleep within reach of an awake point: at the edge, its forces watched; deeper: unwatched
   for (int k = 0; k < n; ++k)
     if (rod->asleep[k]) rod->asleep[k] = VSC_ASLEEP_DEEP;
