@@ -135,8 +135,10 @@
     "a scene turns it on where it is measured: the shipped cavity and its tasks do. Needs `mass_matrix` " \
     "`lumped` and an explicit integrator") \
   X(sleep_speed, VSC_KEY_KIND_NONNEGATIVE, FIELD(step.sleep.rest_speed), 0, 0, "m/s", CORE, \
-    "a control point slower than this is at rest; a partner faster than this wakes it") \
-  X(sleep_time, VSC_KEY_KIND_NONNEGATIVE, FIELD(step.sleep.rest_time), 0, 0, "s", CORE, \
+    "a control point whose mean speed over `sleep_time` is below this is at rest (it stays within " \
+    "`sleep_speed` x `sleep_time` of where its rest began); a neighbour moving at this speed over a step " \
+    "wakes it, and a geom moving at 1 % of it; 0: nothing sleeps") \
+  X(sleep_time, VSC_KEY_KIND_POSITIVE, FIELD(step.sleep.rest_time), 0, 0, "s", CORE, \
     "at rest this long, a control point sleeps") \
   X(mass_matrix, VSC_KEY_KIND_CHOICE, FIELD(rod.lumped_mass), 0, 0, "-", CORE, \
     "`lumped` (each row of the band matrix summed on its diagonal: same total mass, gravity and rest " \

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "viscera/vsc_contact.h"
+#include "viscera/vsc_forces.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/viscera.h"
@@ -141,6 +142,12 @@ static void a_resting_rod_sleeps_where_it_lies(void) {
   vsc_step_options off = b.options;
   off.sleep.enabled = 0;
   ENSURE(step_bed(&b, &off) == VSC_OK);
+  // the sleep flags are the step's own: a lone evaluation after it sees every point free
+  ENSURE(step_bed(&b, NULL) == VSC_OK);
+  double a[3 * N];
+  vsc_world no_floor = {{0, 0, -9.81}, NULL, 0};
+  vsc_rod_acceleration(b.rod, &no_floor, b.q, b.v, a);
+  ENSURE_NEAR(a[3 * (N / 2) + 2], -9.81, 0.5);
   vsc_rod_destroy(b.rod);
 }
 

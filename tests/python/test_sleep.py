@@ -104,7 +104,7 @@ def test_copies_and_pickles_of_a_sleeping_bowel_step_alike():
     (dict(sleep=1, integrator="implicit"), "attribute 'sleep' = '1' needs 'mass_matrix' = 'lumped'"),
     (dict(sleep=1, mass_matrix="consistent"), "'mass_matrix' = 'consistent'"),
     (dict(sleep=2), "attribute 'sleep' = '2' must be at most 1"),
-    (dict(sleep_time=-1), "attribute 'sleep_time' = '-1' must be >= 0"),
+    (dict(sleep_time=0), "attribute 'sleep_time' = '0' must be positive"),
     (dict(sleep_speed="fast"), "attribute 'sleep_speed' = 'fast' is not a finite number"),
 ])
 def test_bad_sleep_config_is_refused_at_load(config, message):

@@ -13,8 +13,9 @@
 /// The spheres and their velocities must be placed (vsc_place.h). Returns the
 /// number of contacts.
 /// Where control points sleep (rod->asleep_count > 0), the pairs that cannot
-/// matter are not looked for: a sleeping sphere against a static geom, and two
-/// segments whose four spheres all sleep.
+/// matter are not looked for: a sphere asleep deep against a static geom, and
+/// two segments whose four spheres all sleep deep (vsc_rod.h); a rod asleep
+/// everywhere looks at moving bodies' geoms only.
 int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q);
 
 /// Each contact the last contact pass found: visit(data, rigid, a, b, speed,

@@ -17,6 +17,7 @@ void vsc_forces_evaluate(const vsc_step_context* context, const double* q, const
   int n = rod->n;
   // place: every later stage reads the samples or the spheres
   rod->touched = world->geom_count > 0 || rod->def.self_collision;
+  if (!rod->touched) rod->found_count = 0;  // no contact found: none for sleeping to read
   vsc_rod_update_samples(rod, q);
   if (rod->touched) vsc_rod_update_spheres(rod, q, v);
   for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj

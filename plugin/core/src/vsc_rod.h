@@ -9,8 +9,10 @@
 typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact_lists.c
 
 /// A control point's sleep within a step (vsc_sleep.c): awake; asleep within
-/// VSC_SLEEP_REACH of an awake point (its forces are still evaluated, so an
-/// unbalanced one wakes it); asleep deeper (nothing about it is evaluated).
+/// VSC_SLEEP_REACH of an awake point (its forces are still evaluated, so a
+/// change in its load wakes it); asleep deeper (its elastic forces are not
+/// gathered, nor its contacts with static geoms and with other deep spheres
+/// looked for; those with moving geoms and awake segments still are).
 enum { VSC_AWAKE = 0, VSC_ASLEEP_EDGE = 1, VSC_ASLEEP_DEEP = 2 };
 
 /// A rod (viscera/vsc_rod.h): the definition plus caches derived from it. Owns

@@ -82,6 +82,16 @@ int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double
   return count;
 }
 
+void vsc_sleep_retry(vsc_rod* rod) {
+  if (rod->asleep_count > 0) memset(rod->unbalanced, 0, (size_t)rod->n);
+}
+
+void vsc_sleep_end(vsc_rod* rod) {
+  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
+  rod->asleep_count = 0;
+  rod->rest = NULL;
+}
+
 void vsc_sleep_wake_all(vsc_rod* rod, const double* q, double* rest) {
   if (rest) vsc_rest_wake_all(rod->n, q, rest);
   if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));

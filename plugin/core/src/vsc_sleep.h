@@ -28,6 +28,13 @@ int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, 
 void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_options* options, const double* start_q,
                        const double* q, double dt, double* rest);
 
+/// A retried attempt: the edge points' changed loads the failed one saw are forgotten.
+void vsc_sleep_retry(vsc_rod* rod);
+
+/// The step is over: the rod's flags cleared (every point awake to a later evaluation) and the
+/// host's records let go.
+void vsc_sleep_end(vsc_rod* rod);
+
 /// Every point awake, its rest starting over at q (m), and the rod's flags cleared.
 void vsc_sleep_wake_all(vsc_rod* rod, const double* q, double* rest);
 

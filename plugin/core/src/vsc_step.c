@@ -94,15 +94,25 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
   return 1;
 }
 
+static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
+                       double dt, const vsc_step_options* options, vsc_step_report* report);
+
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
                         double dt, const vsc_step_options* options, vsc_step_report* report) {
+  vsc_status status = step(rod, world, q, v, stick, rest, dt, options, report);
+  vsc_sleep_end(rod);  // the flags are this step's: a lone evaluation after it sees every point awake
+  return status;
+}
+
+static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
+                       double dt, const vsc_step_options* options, vsc_step_report* report) {
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
       !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
     return VSC_ERROR_INVALID_ARGUMENT;
   int sleeping = rest && o.sleep.enabled;
   if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||
-                   !(o.sleep.rest_speed >= 0.0) || !(o.sleep.rest_time >= 0.0)))
+                   !(o.sleep.rest_speed >= 0.0) || !(o.sleep.rest_time > 0.0)))
     return VSC_ERROR_INVALID_ARGUMENT;
   vsc_step_context context = {rod, world, stick, dt, 0.0, NULL, 0.0};
   if (report) {
@@ -138,6 +148,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double*
       if (stick) memcpy(stick, start_stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
       if (2 * substeps > VSC_MAX_RETRY_SUBSTEPS) break;
       substeps *= 2;
+      if (sleeping) vsc_sleep_retry(rod);  // the failed attempt's edge loads count for nothing
     }
     if (report) {
       report->retries = retry;

@@ -2,8 +2,9 @@
 // way a rigid-body engine puts resting bodies to sleep, but per control point
 // of one spline, so that a tool moving one loop leaves the rest of the bowel
 // asleep. The host keeps a rest record per control point (VSC_REST_SIZE
-// numbers: seconds at rest, then where its rest began); vsc_rod_step
-// (vsc_integrate.h) reads and advances it.
+// numbers, below: seconds at rest, where its rest began, and the load it lay
+// under at the edge of the awake part); vsc_rod_step (vsc_integrate.h) reads
+// and advances it.
 //
 // - A control point is at rest while it stays within rest_speed x rest_time
 //   of where its rest began (its mean speed below `rest_speed`: a contact's
@@ -34,9 +35,9 @@
 /// When control points sleep.
 typedef struct vsc_sleep_options {
   int enabled;        ///< 1: points at rest sleep; 0: every point is integrated every step
-  double rest_speed;  ///< a point whose mean speed over rest_time is below this is at rest; a geom
-                      ///< faster than this wakes what it touches (m/s)
-  double rest_time;   ///< at rest this long, a point sleeps (s)
+  double rest_speed;  ///< a point whose mean speed over rest_time is below this is at rest; a
+                      ///< neighbour moving this fast over a step wakes it (m/s); 0: nothing sleeps
+  double rest_time;   ///< at rest this long, a point sleeps (s, > 0)
 } vsc_sleep_options;
 
 /// Disabled; 5 mm/s and 0.25 s when enabled.
