@@ -9,8 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geoms.h"
 #include "keys.h"
 #include "viscera/vsc_layout.h"
+#include "viscera/vsc_stability.h"
 
 // keys.h's columns as vsc_plugin_key fields
 #define FIELD(member) (long)offsetof(vsc_plugin_config, member)
@@ -199,10 +201,11 @@ static int read_pinned(reader* r, vsc_plugin_config* c) {
       status = fail(r, "attribute 'pinned' = '%s' must be control point indices (integers)", text);
       break;
     }
-    if (k < 0 || k >= n) {
-      status = fail(r, "attribute 'pinned' = '%s': index %ld is out of range [0, %d]", text, k, n - 1);
+    if (k < -n || k >= n) {
+      status = fail(r, "attribute 'pinned' = '%s': index %ld is out of range [%d, %d]", text, k, -n, n - 1);
       break;
     }
+    if (k < 0) k += n;  // from the end, as Python counts: -1 is the last (n chosen by 'tolerance', say)
     if (!seen[k]) c->pinned[c->rod.pinned_count++] = (int)k;  // duplicates are harmless
     seen[k] = 1;
     p = end;
@@ -302,14 +305,66 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
   return 0;
 }
 
+// 'tolerance': the resolution it chooses (vsc_resolution.h) for the keys not
+// given, or the limit it cannot be met within.
+static int apply_tolerance(reader* r, vsc_plugin_config* c) {
+  vsc_rod_def* d = &c->rod;
+  const unsigned char* given = c->given;
+  if (!given[VSC_KEY_tolerance]) return 0;
+  const char* text = raw(r, "tolerance");
+  if (!(c->tolerance < 1.0)) return fail(r, "attribute 'tolerance' = '%s' must be below 1 (a relative error)", text);
+  const mjtNum* g = r->m->opt.gravity;
+  int gravity_off = (r->m->opt.disableflags & mjDSBL_GRAVITY) != 0;
+  vsc_resolution_request request = {
+      .tolerance = c->tolerance, .length = d->length, .radius = d->radius, .mass_per_length = d->mass / d->length,
+      .bending_rigidity = d->bending_rigidity,
+      // the whole-length axial stiffness EA (N): springs, the bend springs' share and the global term
+      .axial_stiffness = (d->stretch_stiffness + 4.0 * d->bend_stiffness + d->global_stretch_stiffness) * d->length,
+      .gravity = gravity_off ? 0.0 : sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]),
+      .contacts = d->self_collision || vsc_mujoco_geoms_any(r->m), .integrator = c->step.integrator};
+  vsc_resolution* out = &c->resolution;
+  switch (vsc_resolution_choose(&request, out)) {
+    case VSC_RESOLUTION_OK: break;
+    case VSC_RESOLUTION_BELOW_FLOOR:
+      return fail(r, "attribute 'tolerance' = '%s' is below %.2g, the smallest relative error every validation "
+                  "case of a rod %s reaches (docs/config.md#tolerance)", text, out->floor,
+                  request.bending_rigidity > 0.0 ? "with a bending rigidity" : "of springs alone");
+    case VSC_RESOLUTION_CONTROL_POINTS:
+      return fail(r, "attribute 'tolerance' = '%s' needs %.0f control points for 'length' = %g m, more than the "
+                  "limit %d", text, out->needed, d->length, VSC_MAX_CONTROL_POINTS);
+    case VSC_RESOLUTION_COLLISION_SPHERES:
+      return fail(r, "attribute 'tolerance' = '%s' needs %.0f collision spheres for 'length' = %g m and 'radius' = "
+                  "%g m, more than the limit %d", text, out->needed, d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
+    case VSC_RESOLUTION_INVALID:
+      return fail(r, "attribute 'tolerance' = '%s' cannot be applied to this intestine's length, radius, mass and "
+                  "stiffnesses", text);
+  }
+  if (!given[VSC_KEY_control_points]) d->control_count = out->control_points;
+  if (!given[VSC_KEY_samples_per_segment]) d->samples_per_segment = out->samples_per_segment;
+  if (!given[VSC_KEY_collision_spheres]) d->collision_sphere_count = out->collision_spheres;
+  double accurate = vsc_resolution_substeps(out, r->m->opt.timestep);
+  if (c->auto_substeps && accurate > VSC_MAX_AUTO_SUBSTEPS)
+    return fail(r, "attribute 'tolerance' = '%s' needs %.0f substeps per %g s step with 'integrator' = '%s', more "
+                "than the limit %d: lower the timestep or choose another integrator", text, accurate,
+                r->m->opt.timestep, vsc_integrator_names[c->step.integrator], VSC_MAX_AUTO_SUBSTEPS);
+  return 0;
+}
+
+int vsc_plugin_config_substeps(const vsc_plugin_config* c, double elastic, double contact, double contact_damping_rate,
+                               double dt) {
+  if (!c->auto_substeps) return c->step.substeps;
+  int stable = vsc_stable_substeps(c->step.integrator, elastic, contact, contact_damping_rate, dt);
+  if (!c->given[VSC_KEY_tolerance]) return stable;
+  double accurate = vsc_resolution_substeps(&c->resolution, dt);
+  if (accurate > VSC_MAX_AUTO_SUBSTEPS) accurate = VSC_MAX_AUTO_SUBSTEPS;  // a timestep raised after load
+  return accurate > stable ? (int)accurate : stable;
+}
+
 // Defaults computed from other keys (DERIVED in keys.h), then the checks that
 // involve several keys.
 static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   vsc_rod_def* d = &c->rod;
   const unsigned char* given = c->given;
-  if ((double)(d->control_count - 1) * d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
-    return fail(r, "attributes 'control_points' = %d and 'samples_per_segment' = %d give more than %d samples",
-                d->control_count, d->samples_per_segment, VSC_MAX_SAMPLES);
   // mass: given, or from the density of a full tube of the contact radius
   if (given[VSC_KEY_mass] && given[VSC_KEY_density]) return fail(r, "attributes 'mass' and 'density' are both given: give one");
   if (!given[VSC_KEY_mass]) {
@@ -347,13 +402,17 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   if (!isfinite(d->stretch_stiffness) || !isfinite(d->bending_rigidity))
     return fail(r, "attribute 'young_modulus' = '%s' gives non-finite stiffnesses", raw(r, "young_modulus"));
   c->auto_substeps = !given[VSC_KEY_substeps];
+  if (apply_tolerance(r, c)) return -1;
+  if ((double)(d->control_count - 1) * d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
+    return fail(r, "attributes 'control_points' = %d and 'samples_per_segment' = %d give more than %d samples",
+                d->control_count, d->samples_per_segment, VSC_MAX_SAMPLES);
   // sleeping holds points still, which the consistent matrix and the implicit solve cannot do in part
   int can_sleep = d->lumped_mass && c->step.integrator != VSC_INTEGRATOR_IMPLICIT;
   if (c->step.sleep.enabled && !can_sleep)
     return fail(r, "attribute 'sleep' = '1' needs 'mass_matrix' = 'lumped' and an explicit integrator, not "
                 "'mass_matrix' = '%s' with 'integrator' = '%s'", d->lumped_mass ? "lumped" : "consistent",
                 vsc_integrator_names[c->step.integrator]);
-  if (!given[VSC_KEY_collision_spheres]) {
+  if (!given[VSC_KEY_collision_spheres] && !given[VSC_KEY_tolerance]) {
     d->collision_sphere_count = vsc_default_collision_sphere_count(d->length, d->radius);
     if (d->collision_sphere_count < 2)  // the default overflowed
       return fail(r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "

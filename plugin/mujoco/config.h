@@ -8,6 +8,7 @@
 
 #include "keys.h"
 #include "viscera/vsc_integrate.h"
+#include "viscera/vsc_resolution.h"
 #include "viscera/vsc_rod.h"
 #include "viscera/vsc_skin.h"
 
@@ -93,7 +94,9 @@ typedef struct vsc_grasper_config {
 typedef struct vsc_plugin_config {
   vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
   vsc_step_options step;      ///< integrator, substeps per MuJoCo step, divergence retries
-  int auto_substeps;          ///< 1: 'substeps' not given; chosen per step from the timestep (vsc_stable_substeps)
+  int auto_substeps;          ///< 1: 'substeps' not given; chosen per step from the timestep (vsc_plugin_config_substeps)
+  double tolerance;           ///< relative error accepted; given[VSC_KEY_tolerance], else the keys' own resolution
+  vsc_resolution resolution;  ///< what the tolerance chose (its substeps' accuracy bound); zero without one
   vsc_skin_def skin;          ///< skin resolution and radius profile
   double friction;            ///< Coulomb coefficient against every geom; < 0: each geom's friction[0]
   double density;             ///< kg/m^3, when the mass is not given
@@ -123,6 +126,14 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* co
 /// Set the clamp directions of clamped ends from the initial control points
 /// q (m, 3n): the spline's end tangents. Returns 0, or -1 with a message.
 int vsc_plugin_config_clamp(vsc_plugin_config* config, const double* q, char* error, int error_size);
+
+/// Substeps per step dt (s) when 'substeps' is not given: the fewest the
+/// stability estimate allows (vsc_stable_substeps with the rod's elastic and
+/// contact frequencies, rad/s, and contact damping rate, 1/s), and with a
+/// 'tolerance' at least those that keep its accuracy (vsc_resolution_substeps).
+/// With 'substeps' given, that value.
+int vsc_plugin_config_substeps(const vsc_plugin_config* config, double elastic, double contact,
+                               double contact_damping_rate, double dt);
 
 /// Release what vsc_plugin_config_read allocated.
 void vsc_plugin_config_free(vsc_plugin_config* config);

@@ -92,6 +92,20 @@ void vsc_mujoco_geoms_free(vsc_mujoco_geoms* w) {
   memset(w, 0, sizeof(*w));
 }
 
+// 1 if the intestine may touch geom g: a type it collides with, passing the filter.
+static int touchable(const mjModel* m, int g) {
+  int supported;
+  geom_type(m->geom_type[g], &supported);
+  int filtered = (m->geom_contype[g] & INTESTINE_CONAFFINITY) || (m->geom_conaffinity[g] & INTESTINE_CONTYPE);
+  return supported && filtered;
+}
+
+int vsc_mujoco_geoms_any(const mjModel* m) {
+  for (int g = 0; g < m->ngeom; ++g)
+    if (touchable(m, g)) return 1;
+  return 0;
+}
+
 int vsc_mujoco_geoms_create(const mjModel* m, vsc_mujoco_geoms* w) {
   memset(w, 0, sizeof(*w));
   size_t room = (size_t)(m->ngeom > 0 ? m->ngeom : 1);
@@ -101,12 +115,8 @@ int vsc_mujoco_geoms_create(const mjModel* m, vsc_mujoco_geoms* w) {
     vsc_mujoco_geoms_free(w);
     return -1;
   }
-  for (int g = 0; g < m->ngeom; ++g) {
-    int supported;
-    geom_type(m->geom_type[g], &supported);
-    int filtered = (m->geom_contype[g] & INTESTINE_CONAFFINITY) || (m->geom_conaffinity[g] & INTESTINE_CONTYPE);
-    if (supported && filtered) w->ids[w->count++] = g;
-  }
+  for (int g = 0; g < m->ngeom; ++g)
+    if (touchable(m, g)) w->ids[w->count++] = g;
   w->convex = (vsc_convex*)calloc((size_t)(w->count > 0 ? w->count : 1), sizeof(vsc_convex));
   w->heightfield = (vsc_heightfield*)calloc((size_t)(w->count > 0 ? w->count : 1), sizeof(vsc_heightfield));
   if (!w->convex || !w->heightfield) {

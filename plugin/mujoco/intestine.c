@@ -345,10 +345,8 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
 // The estimate is taken at the initial shape, from the model alone, so every
 // copy of a data chooses alike.
 static int step_substeps(const mjModel* m, intestine* it) {
-  if (!it->config.auto_substeps) return it->config.step.substeps;
-  return vsc_stable_substeps(it->config.step.integrator, it->elastic_frequency, it->contact_frequency,
-                             vsc_rod_contact_damping_rate(it->rod),
-                             m->opt.timestep);
+  return vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency,
+                                    vsc_rod_contact_damping_rate(it->rod), m->opt.timestep);
 }
 
 // A state that is not finite anywhere (a bad mj_setState, say) starts over

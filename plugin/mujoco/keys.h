@@ -19,6 +19,11 @@
 #define VSC_PLUGIN_KEYS(X) \
   X(length, VSC_KEY_KIND_POSITIVE, FIELD(rod.length), 0, 0, "m", CORE, \
     "rest length of the axis") \
+  X(tolerance, VSC_KEY_KIND_POSITIVE, FIELD(tolerance), 0, 0, "relative error", DERIVED("none"), \
+    "the relative error the scene accepts, below 1: it chooses `control_points`, `samples_per_segment`, " \
+    "`collision_spheres` and the substeps' accuracy from the validation cases' measured convergence; a " \
+    "key given explicitly wins. Refused below what the validation cases reach or past the plugin's limits " \
+    "(see [tolerance](#tolerance))") \
   X(control_points, VSC_KEY_KIND_COUNT, FIELD(rod.control_count), 4, VSC_MAX_CONTROL_POINTS, "count", CORE, \
     "control points n (with `samples_per_segment` and `collision_spheres` at most 2.1 GB of memory per " \
     "intestine, checked at load)") \
@@ -65,7 +70,8 @@
     DERIVED("ceil(length / radius) + 1 (321)"), \
     "spheres uniform in abscissa, one radius apart") \
   X(pinned, VSC_KEY_KIND_CUSTOM, NO_FIELD, 0, 0, "indices", DERIVED("none"), \
-    "space-separated control point indices held fixed in space") \
+    "space-separated control point indices held fixed in space; negative ones count from the end (-1 is the " \
+    "last), as where `tolerance` chooses the count") \
   X(shape, VSC_KEY_KIND_CHOICE, FIELD(shape), 0, 0, "-", VALUE("line"), \
     "initial shape") \
   X(start, VSC_KEY_KIND_VECTOR, FIELD(start), 0, 3, "m", VALUE("0 0 0"), \

@@ -36,7 +36,7 @@ BAD = [
     ({"divergence_retries": "11"}, ["divergence_retries", "11"]),
     ({"divergence_retries": "-1"}, ["divergence_retries", "-1"]),
     ({"pinned": "0 250"}, ["pinned", "250"]),
-    ({"pinned": "-1"}, ["pinned", "-1"]),
+    ({"pinned": "-251"}, ["pinned", "-251"]),
     ({"pinned": "a"}, ["pinned", "a"]),
     ({"shape": "spiral"}, ["shape", "spiral"]),
     ({"direction": "0 0 0"}, ["direction", "0 0 0"]),

@@ -213,9 +213,10 @@ vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v,
   return VSC_OK;
 }
 
-#define VSC_SCHEME_ROW_(id, name, substep, trusted, explicit_damping, elastic_implicit) \
-  [VSC_INTEGRATOR_##id] = {name, substep, trusted, explicit_damping, elastic_implicit},
+#define VSC_SCHEME_ROW_(id, name, substep, trusted, explicit_damping, elastic_implicit, phase_c, phase_p) \
+  [VSC_INTEGRATOR_##id] = {name, substep, trusted, explicit_damping, elastic_implicit, phase_c, phase_p},
 const vsc_scheme vsc_schemes[VSC_INTEGRATOR_COUNT] = {VSC_INTEGRATORS(VSC_SCHEME_ROW_)};
 
-#define VSC_SCHEME_NAME_(id, name, substep, trusted, explicit_damping, elastic_implicit) [VSC_INTEGRATOR_##id] = name,
+#define VSC_SCHEME_NAME_(id, name, substep, trusted, explicit_damping, elastic_implicit, phase_c, phase_p) \
+  [VSC_INTEGRATOR_##id] = name,
 const char* const vsc_integrator_names[VSC_INTEGRATOR_COUNT + 1] = {VSC_INTEGRATORS(VSC_SCHEME_NAME_) NULL};

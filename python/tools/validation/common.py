@@ -53,11 +53,22 @@ def peak_frequency(signal: np.ndarray, step: float, low: float, high: float) -> 
     return 0.5 * (a + b)
 
 
+# the resolution of the rod compiled last (its control points, samples per segment, collision
+# spheres, substeps at its timestep): what a `tolerance` chose, for tolerance_study.py
+LAST_RESOLUTION: dict = {}
+
+
 def compile_rod(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = ""):
+    """The model, a data and the intestine of one rod; a key whose value is None is left out (the
+    plugin's default, or the `tolerance`'s choice)."""
+    config = {key: value for key, value in config.items() if value is not None}
     xml = (f'<mujoco><option timestep="{timestep}" gravity="{gravity[0]} {gravity[1]} {gravity[2]}"/>'
            f'{viscera.extension_xml("rod", **config)}<worldbody>{worldbody}</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
-    return model, mujoco.MjData(model), viscera.intestine(model)
+    gut = viscera.intestine(model)
+    LAST_RESOLUTION.update(control_points=gut.control_count, samples_per_segment=gut.samples_per_segment,
+                           collision_spheres=gut.sphere_count, substeps=gut.stability()["substeps"])
+    return model, mujoco.MjData(model), gut
 
 
 def relax(config: dict, duration: float, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = "",

@@ -19,10 +19,11 @@ ELASTICA = {1.0: 0.30172, 2.0: 0.49346, 5.0: 0.71379, 10.0: 0.81061}
 GRASP_STIFFNESS = 2.0e4  # N/m: the hook holding the load stretches P / k (2 mm at 40 N)
 
 
-def tip_load(n: int, alpha: float) -> dict:
+def tip_load(n: int, alpha: float, **keys) -> dict:
     """A free body hooked to the tip by a grasper (the whole stack: site, jaw joint, hold
     spring) and pushed down by a constant xfrc_applied P = alpha EI / L^2 (a dead load).
-    Reference: alpha / 3 (linear) below alpha = 0.1, else the elastica table."""
+    Reference: alpha / 3 (linear) below alpha = 0.1, else the elastica table. `keys`: further
+    intestine keys (resolution: samples_per_segment, ...), winning over the case's."""
     length, rigidity = TIP_LENGTH, TIP_RIGIDITY
     young = rigidity / SECOND_MOMENT
     axial = young * np.pi * RADIUS**2
@@ -33,6 +34,7 @@ def tip_load(n: int, alpha: float) -> dict:
                   substeps=substeps, self_collision=0, shape="line", direction=[1, 0, 0], clamped="start",
                   grasp_sites="hook", grasp_joints="jaw", grasp_stiffness=GRASP_STIFFNESS, grasp_damping=2,
                   grasp_slip_force=1e9)
+    config.update(keys)
     # the load: 1 kg on slide joints (no rotation to settle), damped about critically on the
     # beam's tip stiffness 3 EI / L^3; the jaw is a hinge nothing turns, so it never opens.
     # (A 0.1 kg load oscillated and grew: the hold's force reaches MuJoCo once per step.)
