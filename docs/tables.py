@@ -11,7 +11,8 @@ docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/c
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json likewise),
-docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/rehearsal/band.json (python
+docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/tolerance.json
+(python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
 python/tools/reference_band.py) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
@@ -277,6 +278,28 @@ def pixel_speed() -> str:
     return _rows(["frame", "env steps/s, pixels off", "env steps/s, pixels on", "frame (ms)", "scene update",
                   "render (2 draws)", "read-back", "labels, arrays", "MuJoCo's renderer at the defaults, RGB only (ms)"],
                  rows)
+
+
+def tolerance() -> str:
+    """From docs/validation/tolerance.json (python python/tools/tolerance_study.py): per tolerance,
+    the resolution it chose for each group's cases, their worst error and cost."""
+    rows = _json("validation/tolerance.json")["verification"]
+    out = []
+    for tol in sorted({r["tolerance"] for r in rows}, reverse=True):
+        for group, label in (("bending", "with EI: cantilever, tip load, elastica, vibration"),
+                             ("springs", "springs alone: catenary, hanging rod")):
+            mine = [r for r in rows if r["tolerance"] == tol and r["group"] == group]
+            worst = max(mine, key=lambda r: r["error"])
+            slowest = max(mine, key=lambda r: r["wall_s_per_sim_s"])
+            points = sorted({r["control_points"] for r in mine})
+            substeps = sorted({r["substeps"] for r in mine})
+            out.append([f"{tol:g}", label, ", ".join(map(str, points)), f"{mine[0]['samples_per_segment']}",
+                        f"{substeps[0]} to {substeps[-1]}" if len(substeps) > 1 else f"{substeps[0]}",
+                        f"{worst['error']:.1e} ({worst['case'].replace('_', ' ')})",
+                        f"{slowest['wall_s_per_sim_s']:.3f}"])
+    return _rows(["tolerance", "rods (0.5 m beams, 4 m catenary, 1 m hanging rod)", "control points",
+                  "samples per segment", "substeps per 1 ms", "worst relative error (case)",
+                  "wall s per sim s, dearest case"], out)
 
 
 def config_keys() -> str:

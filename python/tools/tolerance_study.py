@@ -123,6 +123,31 @@ def verification(quick: bool) -> list[dict]:
     return rows
 
 
+def plot(result: dict, path: pathlib.Path) -> None:
+    """Error against segments, per case, at 1 and 2 samples per segment, with the envelope."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for ax, (group, title) in zip(axes, (("bending", "rods with a bending rigidity"),
+                                         ("springs", "the paper's springs alone"))):
+        for samples, style in (("1", "-"), ("2", ":")):
+            for i, (case, errors) in enumerate(result["convergence"][group][samples].items()):
+                n = [int(k) for k in errors]
+                ax.loglog(n, [max(v, 1e-9) for v in errors.values()], style, color=f"C{i}", lw=1,
+                          label=case.replace("_", " ") if samples == "1" else None)
+        env = np.array(result["envelopes"][group])
+        ax.loglog(env[:, 0], env[:, 1], "k-", lw=2.5, label="envelope (1 sample)")
+        ax.set_title(f"{title}: 1 sample per segment (solid), 2 (dotted)", fontsize=9)
+        ax.set_xlabel("segments over the shape length")
+        ax.set_ylim(1e-6, 1)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("relative error against the analytic reference")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer resolutions and tolerances")
@@ -142,7 +167,8 @@ def main() -> None:
         print(f"wrote {HEADER.relative_to(ROOT)}: rebuild the plugin, then run with --verify-only")
     result["verification"] = verification(args.quick) if args.verify_only else []
     path.write_text(json.dumps(result, indent=1) + "\n")
-    print(f"wrote {path}")
+    plot(result, args.out / "tolerance.png")
+    print(f"wrote {path} and tolerance.png")
 
 
 if __name__ == "__main__":
