@@ -287,19 +287,24 @@ def tolerance() -> str:
     out = []
     for tol in sorted({r["tolerance"] for r in rows}, reverse=True):
         for group, label in (("bending", "with EI: cantilever, tip load, elastica, vibration"),
-                             ("springs", "springs alone: catenary, hanging rod")):
+                             ("springs", "springs alone: catenary, hanging rod"),
+                             ("contact", "a 1 m tube resting on a plane (springs, can touch; its rest height)")):
             mine = [r for r in rows if r["tolerance"] == tol and r["group"] == group]
+            if not mine:
+                continue
             worst = max(mine, key=lambda r: r["error"])
             slowest = max(mine, key=lambda r: r["wall_s_per_sim_s"])
-            points = sorted({r["control_points"] for r in mine})
-            substeps = sorted({r["substeps"] for r in mine})
-            out.append([f"{tol:g}", label, ", ".join(map(str, points)), f"{mine[0]['samples_per_segment']}",
-                        f"{substeps[0]} to {substeps[-1]}" if len(substeps) > 1 else f"{substeps[0]}",
+
+            def spread(key):
+                values = sorted({r[key] for r in mine})
+                return f"{values[0]} to {values[-1]}" if len(values) > 1 else f"{values[0]}"
+            out.append([f"{tol:g}", label, spread("control_points"), spread("samples_per_segment"),
+                        spread("collision_spheres"), spread("substeps"),
                         f"{worst['error']:.1e} ({worst['case'].replace('_', ' ')})",
                         f"{slowest['wall_s_per_sim_s']:.3f}"])
     return _rows(["tolerance", "rods (0.5 m beams, 4 m catenary, 1 m hanging rod)", "control points",
-                  "samples per segment", "substeps per 1 ms", "worst relative error (case)",
-                  "wall s per sim s, dearest case"], out)
+                  "samples per segment", "collision spheres", "substeps per 1 ms",
+                  "worst relative error (case)", "wall s per sim s, dearest case"], out)
 
 
 def config_keys() -> str:

@@ -100,7 +100,8 @@ FLOAT_RANGES = {"length": (0.05, 5.0), "mass": (1e-3, 10.0), "density": (100.0, 
                 "self_friction": (0.0, 2.0), "mesentery_stiffness": (0.0, 1e3), "mesentery_length": (0.0, 0.5),
                 "grasp_closed_below": (-1.0, 1.0), "grasp_reach": (1e-3, 0.1), "grasp_stiffness": (0.0, 1e5),
                 "grasp_damping": (0.0, 100.0), "grasp_slip_force": (0.1, 100.0), "young_modulus": (1e3, 1e7),
-                "wall_thickness": (1e-4, 0.01), "bending_rigidity": (0.0, 1.0)}
+                "wall_thickness": (1e-4, 0.01), "bending_rigidity": (0.0, 1.0),
+                "tolerance": (0.03, 0.9)}  # finer tolerances take more points than a quick fuzz steps
 # plausible ranges of the keys above; a key without one is drawn by its kind
 KIND_RANGES = {"real": (-1.0, 1.0), "positive": (1e-3, 10.0), "nonnegative": (0.0, 10.0)}
 COUNT_RANGES = {"control_points": (4, 300), "substeps": (1, 8), "collision_spheres": (2, 600),

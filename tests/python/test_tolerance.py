@@ -123,4 +123,4 @@ def test_the_table_the_core_reads_is_the_committed_studys():
             for n, bound in rows:
                 assert max(e for m, e in errors.items() if int(m) >= n) <= bound * (1 + 1e-9)
     for row in study["verification"]:  # and through the key itself, every case within half
-        assert row["error"] <= 0.5 * row["tolerance"]
+        assert row["error"] <= 0.5 * row["tolerance"], row

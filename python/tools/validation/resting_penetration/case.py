@@ -10,10 +10,12 @@ import numpy as np
 
 from validation.common import DENSITY, G, RADIUS, relax
 
-def resting_penetration(n: int) -> dict:
+def resting_penetration(n: int, **keys) -> dict:
     """A 1 m tube lying on a plane: the interior spheres' penetration against the penalty's
-    m g / ((S - 1) k) (S spheres of stiffness k share the weight)."""
+    m g / ((S - 1) k) (S spheres of stiffness k share the weight). `keys`: further intestine keys
+    (resolution: tolerance, ...), winning over the case's."""
     config = dict(length=1.0, control_points=n, damping=5, shape="line", start=[0, 0, 0.1], direction=[1, 0, 0])
+    config.update(keys)
     data, gut, cost = relax(config, 3.0, 0.001, worldbody='<geom type="plane" size="3 3 0.1"/>')
     penetration = gut.radius - gut.sphere_centres(data)[:, 2]
     weight = DENSITY * np.pi * RADIUS**2 * 1.0 * G
