@@ -302,7 +302,7 @@ def tolerance() -> str:
                         spread("collision_spheres"), spread("substeps"),
                         f"{worst['error']:.1e} ({worst['case'].replace('_', ' ')})",
                         f"{slowest['wall_s_per_sim_s']:.3f}"])
-    return _rows(["tolerance", "rods (0.5 m beams, 4 m catenary, 1 m hanging rod)", "control points",
+    return _rows(["tolerance", "cases (0.5 m beams, a 4 m catenary, 1 m rods)", "control points",
                   "samples per segment", "collision spheres", "substeps per 1 ms",
                   "worst relative error (case)", "wall s per sim s, dearest case"], out)
 
