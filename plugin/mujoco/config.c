@@ -433,7 +433,7 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   double bytes = vsc_rod_memory_bytes(d);
   if (bytes > VSC_MAX_ROD_BYTES)
     return fail(r, "%s'control_points' = %d, 'samples_per_segment' = %d and 'collision_spheres' = %d "
-                "would need %.1f GB, more than the limit of %.1f GB one intestine may take",
+                "would need %.1f GB, more than the %.1f GB one intestine may take",
                 given[VSC_KEY_tolerance] ? "attribute 'tolerance' chooses " : "attributes ", d->control_count,
                 d->samples_per_segment, d->collision_sphere_count, bytes / 1e9, VSC_MAX_ROD_BYTES / 1e9);
   return 0;
