@@ -7,7 +7,8 @@ A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` i
 single figure in a sentence between `<!-- value: FILE KEY FORMAT -->` and `<!-- end value -->`
 (see VALUE below); NAME is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json), docs/pixels/bench.json (python
+(python python/tools/bench_cavity.py --json), docs/bench/instances.json (python python/tools/bench_instances.py
+--json docs/bench/instances.json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json likewise),
@@ -305,6 +306,14 @@ def tolerance() -> str:
     return _rows(["tolerance", "cases (0.5 m beams, a 4 m catenary, 1 m rods)", "control points",
                   "samples per segment", "collision spheres", "substeps per 1 ms",
                   "worst relative error (case)", "wall s per sim s, dearest case"], out)
+
+
+def instances_cost() -> str:
+    """From docs/bench/instances.json (python python/tools/bench_instances.py --json docs/bench/instances.json)."""
+    d = _json("bench/instances.json")
+    rows = [[name, f"{cost:.4f}"] for name, cost in d["wall_s_per_sim_s"].items()]
+    rows.append([f"**two / one: {d['ratio_two_over_one']:.2f}x** (median of {d['runs']} runs' ratios)", ""])
+    return _rows(["load (3 s, 2 ms steps)", "wall s per simulated s"], rows)
 
 
 def config_keys() -> str:

@@ -360,6 +360,24 @@ int vsc_plugin_config_substeps(const vsc_plugin_config* c, double elastic, doubl
   return accurate > stable ? (int)accurate : stable;
 }
 
+// 'exclude': other intestine instances of the model, by name.
+static int read_excluded(reader* r, vsc_plugin_config* c) {
+  c->exclude_count = read_names(r, "exclude", mjOBJ_PLUGIN, "plugin instance", c->exclude, VSC_MAX_EXCLUDED);
+  if (c->exclude_count < 0) return -1;
+  int slot = -1;
+  mjp_getPlugin("viscera.intestine", &slot);
+  for (int i = 0; i < c->exclude_count; ++i) {
+    int id = c->exclude[i];
+    if (r->m->plugin[id] != slot)
+      return fail(r, "attribute 'exclude' = '%s': plugin instance '%s' is not a viscera.intestine", raw(r, "exclude"),
+                  mj_id2name(r->m, mjOBJ_PLUGIN, id));
+    if (id == r->instance)
+      return fail(r, "attribute 'exclude' = '%s' names this instance itself (its self-collision is 'self_collision')",
+                  raw(r, "exclude"));
+  }
+  return 0;
+}
+
 // Defaults computed from other keys (DERIVED in keys.h), then the checks that
 // involve several keys.
 static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
@@ -455,7 +473,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
   for (int i = 0; i < VSC_KEY_COUNT; ++i)
     if (read_key(&r, c, i)) return -1;
   if (derive(&r, c, &core)) return -1;
-  if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c)) {
+  if (read_pinned(&r, c) || read_shape(&r, c) || read_graspers(&r, c) || read_excluded(&r, c)) {
     vsc_plugin_config_free(c);
     return -1;
   }

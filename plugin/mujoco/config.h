@@ -90,6 +90,9 @@ typedef struct vsc_grasper_config {
   double slip_force;             ///< the hold slips when its spring pulls harder (N)
 } vsc_grasper_config;
 
+/// Most other intestine instances one excludes from its contacts ('exclude').
+#define VSC_MAX_EXCLUDED 64
+
 /// Everything an instance's config defines. Owns `pinned` and `points`.
 typedef struct vsc_plugin_config {
   vsc_rod_def rod;            ///< mechanics; rod.pinned points into `pinned`
@@ -113,6 +116,8 @@ typedef struct vsc_plugin_config {
   int point_count;
   int* pinned;                ///< pinned control point indices
   vsc_grasper_config grasp;   ///< jaws that hold the axis
+  int exclude[VSC_MAX_EXCLUDED];  ///< plugin instance ids of the intestines it does not collide with
+  int exclude_count;
   unsigned char given[VSC_KEY_COUNT];  ///< 1 where the model gave the key (by VSC_KEY_ index)
 } vsc_plugin_config;
 

@@ -17,12 +17,14 @@
 #include "cache_registry.h"
 #include "geoms.h"
 #include "grasps.h"
+#include "partners.h"
 #include "state_layout.h"
 #include "config.h"
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_place.h"
 #include "viscera/vsc_skin.h"
+#include "viscera/vsc_sleep.h"
 #include "viscera/vsc_stability.h"
 
 #define ERROR_SIZE 512
@@ -40,6 +42,16 @@ typedef struct intestine {
   double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies,
   double contact_frequency;  // computed at creation when the substeps come from the timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
+  // contacts with the other intestine instances (partners.h): this one computes those with the
+  // higher instances and hands them loads; the lower ones hand it theirs
+  int partners_known;     // 1: the partners were looked up (at this data's first step)
+  int partner_count;      // higher instances it collides with
+  int* partners;          // their instance ids
+  int partner_geoms;      // their capsules, in all
+  vsc_geom* all_geoms;    // MuJoCo's candidate geoms, then the partners' capsules
+  double* all_wrench;     // the reaction on each of them, averaged over a step (6 each)
+  double* load;           // loads the lower instances handed over this step (3 per control point, N)
+  int loaded;             // 1: load holds something
 } intestine;
 
 static void intestine_free(intestine* it) {
@@ -49,6 +61,10 @@ static void intestine_free(intestine* it) {
   vsc_plugin_config_free(&it->config);
   free(it->initial_q);
   free(it->geom_wrench);
+  free(it->partners);
+  free(it->all_geoms);
+  free(it->all_wrench);
+  free(it->load);
   free(it);
 }
 
@@ -69,7 +85,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   int n = it->config.rod.control_count;
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
-  if (!it->initial_q || !it->geom_wrench || vsc_mujoco_geoms_create(m, &it->world)) {
+  it->load = (double*)calloc(3 * (size_t)n, sizeof(double));
+  if (!it->initial_q || !it->geom_wrench || !it->load || vsc_mujoco_geoms_create(m, &it->world)) {
     strcpy(error, "viscera.intestine: out of memory");
     intestine_free(it);
     return NULL;
@@ -382,12 +399,69 @@ static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, c
   warn_start_inside(m, it, world, q);
 }
 
+// 1 if this instance's 'exclude' names instance `other`.
+static int excludes(const intestine* it, int other) {
+  for (int i = 0; i < it->config.exclude_count; ++i)
+    if (it->config.exclude[i] == other) return 1;
+  return 0;
+}
+
+// The higher intestine instances this one collides with (not excluded by
+// either's 'exclude'), and room for their capsules: looked up once per data, at
+// its first step, when every instance's config can be read. 0, or -1 if memory
+// ran out (then it has none).
+static int find_partners(const mjModel* m, mjData* d, intestine* it, int instance) {
+  it->partners_known = 1;
+  int slot = -1;
+  mjp_getPlugin("viscera.intestine", &slot);
+  it->partners = (int*)malloc(sizeof(int) * (size_t)(m->nplugin > 0 ? m->nplugin : 1));
+  if (!it->partners) return -1;
+  for (int j = instance + 1; j < m->nplugin; ++j) {
+    if (m->plugin[j] != slot) continue;
+    intestine* other = caches(m, d, j);
+    if (!other || excludes(it, j) || excludes(other, instance)) continue;
+    it->partners[it->partner_count++] = j;
+    it->partner_geoms += other->config.rod.collision_sphere_count - 1;
+  }
+  if (it->partner_count == 0) return 0;
+  size_t total = (size_t)it->world.count + (size_t)it->partner_geoms;
+  it->all_geoms = (vsc_geom*)calloc(total, sizeof(vsc_geom));
+  it->all_wrench = (double*)calloc(6 * total, sizeof(double));
+  if (!it->all_geoms || !it->all_wrench) {
+    it->partner_count = it->partner_geoms = 0;
+    return -1;
+  }
+  return 0;
+}
+
+// The partners' tubes as capsules after MuJoCo's geoms, at the step start (their
+// states are still the step start's: lower instances advance first and only
+// hand over loads). Returns the geoms in all, or MuJoCo's count alone if a
+// partner's caches cannot be had.
+static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
+  memcpy(it->all_geoms, it->world.geoms, sizeof(vsc_geom) * (size_t)it->world.count);
+  int g = it->world.count;
+  for (int p = 0; p < it->partner_count; ++p) {
+    int j = it->partners[p];
+    intestine* other = caches(m, d, j);
+    if (!other) return it->world.count;
+    const mjtNum* s = d->plugin_state + m->plugin_stateadr[j];
+    vsc_rod_update_spheres(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
+                           s + other->layout.offset[VSC_STATE_VELOCITIES]);
+    double friction = fmax(it->config.rod.self_friction, other->config.rod.self_friction);  // as a geom pair's
+    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, other->config.rod.radius, friction,
+                         0.5 * m->opt.timestep, it->all_geoms + g);
+    g += other->config.rod.collision_sphere_count - 1;
+  }
+  return g;
+}
+
 // Gather: MuJoCo's side of the step, as the core's world. Gravity, the geoms'
-// poses and velocities at the step start, the friction state's partners
-// checked, and the jaws' holds taken or let go.
-static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* state) {
+// poses and velocities at the step start, the other intestines' tubes, the
+// friction state's partners checked, the jaws' holds taken or let go, and the
+// loads the lower intestines handed over.
+static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* state, int instance) {
   const vsc_state_layout l = it->layout;
-  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, it->world.count);
   vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
   model_gravity(m, world.gravity);
   mjtNum* slept_under = state + l.offset[VSC_STATE_GRAVITY];  // a new gravity wakes every point
@@ -399,6 +473,23 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   warn_once(m, it, &world, state);
   memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
   world.geom_wrench = it->geom_wrench;
+  if (!it->partners_known && find_partners(m, d, it, instance))
+    mju_warning("viscera.intestine: out of memory: instance %d does not collide with the other intestines", instance);
+  if (it->partner_count > 0 && contacts_enabled(m)) {
+    world.geoms = it->all_geoms;
+    world.geom_count = add_partner_capsules(m, d, it);
+    memset(it->all_wrench, 0, sizeof(double) * 6 * (size_t)world.geom_count);
+    world.geom_wrench = it->all_wrench;
+  }
+  sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
+  if (it->loaded) {  // a load wakes the points it lies on, as a geom pressing them would
+    const double* q = state + l.offset[VSC_STATE_POSITIONS];
+    for (int k = 0; k < it->config.rod.control_count; ++k) {
+      const double* f = it->load + 3 * k;
+      if (f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0) vsc_rest_wake(k, q, state + l.offset[VSC_STATE_REST]);
+    }
+    world.control_load = it->load;
+  }
   world.grasps = it->holds.grasps;
   world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state,
                                               state + l.offset[VSC_STATE_GRASPS], &it->holds);
@@ -407,13 +498,15 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
 
 // Scatter: the step's average reaction per body, as force and torque about its
 // centre of mass, into the wrenches block; the holds' reactions to the jaws
-// (a hold pulled past slip_force slips).
+// (a hold pulled past slip_force slips); the reactions on the partners' capsules
+// handed to them as loads.
 static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world* world, mjtNum* state) {
   const vsc_state_layout l = it->layout;
   mjtNum* wrench = state + l.offset[VSC_STATE_WRENCHES];
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
-  for (int i = 0; i < world->geom_count; ++i) {
-    const double* w = it->geom_wrench + 6 * i;
+  int rigid = world->geom_count < it->world.count ? world->geom_count : it->world.count;
+  for (int i = 0; i < rigid; ++i) {
+    const double* w = world->geom_wrench + 6 * i;
     int g = it->world.ids[i], body = m->geom_bodyid[g];
     const mjtNum* com = d->xipos + 3 * body;
     double arm[3] = {it->world.geoms[i].position[0] - com[0], it->world.geoms[i].position[1] - com[1],
@@ -421,6 +514,16 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
   vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, state + l.offset[VSC_STATE_GRASPS], wrench);
+  if (world->geom_count <= it->world.count) return;  // no partner this step
+  int g = it->world.count;
+  for (int p = 0; p < it->partner_count; ++p) {
+    intestine* other = caches(m, d, it->partners[p]);
+    int spheres = other->config.rod.collision_sphere_count;
+    vsc_partner_add_load(other->config.rod.control_count, spheres, world->geoms + g, world->geom_wrench + 6 * g,
+                         other->load);
+    other->loaded = 1;
+    g += spheres - 1;
+  }
 }
 
 // Count a diverged or recovered step in the state; warn at counts 1, 2, 4, 8...: no spam.
@@ -442,6 +545,13 @@ static void count_trouble(const mjData* d, intestine* it, mjtNum* state, vsc_sta
   }
 }
 
+// The lower instances' loads last one step: felt, they are cleared.
+static void consume_load(intestine* it) {
+  if (!it->loaded) return;
+  memset(it->load, 0, sizeof(double) * 3 * (size_t)it->config.rod.control_count);
+  it->loaded = 0;
+}
+
 // One MuJoCo step of the rod, top to bottom: gather MuJoCo's side into the
 // core's world, step the rod against the geoms' poses at the step start,
 // scatter the reactions back, count trouble.
@@ -449,9 +559,12 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (restart_if_not_finite(m, it, instance, state)) return;
+  if (restart_if_not_finite(m, it, instance, state)) {
+    consume_load(it);
+    return;
+  }
   const vsc_state_layout l = it->layout;
-  vsc_world world = gather(m, d, it, state);
+  vsc_world world = gather(m, d, it, state, instance);
   vsc_step_options step = it->config.step;
   step.substeps = step_substeps(m, it);
   vsc_step_report report = {0, 0};
@@ -459,6 +572,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
                                    state + l.offset[VSC_STATE_REST], m->opt.timestep, &step, &report);
   scatter(m, d, it, &world, state);
+  consume_load(it);
   count_trouble(d, it, state, status, &report, step.substeps);
 }
 

@@ -104,6 +104,10 @@
     "tethers, at abscissae (i + 1/2) / count, each to the same fraction of the root line") \
   X(mesentery_root, VSC_KEY_KIND_VECTOR, FIELD(rod.mesentery_root), 0, 6, "m", DERIVED("-"), \
     "the root line on the posterior wall: from, to; required when the stiffness is > 0") \
+  X(exclude, VSC_KEY_KIND_CUSTOM, NO_FIELD, 0, 0, "names", DERIVED("none"), \
+    "names of other intestine instances it does not collide with (space-separated), as MuJoCo's " \
+    "`<exclude>` does for a body pair: either instance's list excludes the pair. Otherwise every " \
+    "intestine instance of a model collides with every other, with the larger of their `self_friction`s") \
   X(grasp_sites, VSC_KEY_KIND_CUSTOM, NO_FIELD, 0, 0, "names", DERIVED("none"), \
     "sites where grasping jaws hold the axis (up to 8)") \
   X(grasp_joints, VSC_KEY_KIND_CUSTOM, NO_FIELD, 0, 0, "names", DERIVED("none"), \

@@ -57,7 +57,7 @@ VECTORS = {key: int(viscera.attribute_docs()[key]["values"].split()[0]) for key,
            if kind == "vector"}
 NAME_KEYS = ("grasp_sites", "grasp_joints")
 # the custom keys have generators of their own below (a new one must get one)
-assert {key for key, kind in KINDS.items() if kind == "custom"} == set(NAME_KEYS) | {"points", "pinned"}, KINDS
+assert {key for key, kind in KINDS.items() if kind == "custom"} == set(NAME_KEYS) | {"points", "pinned", "exclude"}, KINDS
 
 GARBAGE = ("", " ", "abc", "1 2", "1e", "0x10", "--1", "1,5", "nan", "-nan", "inf", "-inf", "+inf", "1e999",
            "-1e999", "1e-999", "9" * 400, "0" * 50 + "1", "\u00e9", "1\t2", "true")
@@ -135,6 +135,8 @@ def valid_value(key: str, site_names: list[str], joint_names: list[str]):
         return st.lists(plausible, min_size=6, max_size=45).map(lambda v: " ".join(v[:len(v) - len(v) % 3]))
     if key == "pinned":
         return st.lists(st.integers(0, 3), max_size=3, unique=True).map(lambda v: " ".join(map(str, v)))
+    if key == "exclude":  # the other instances' names (one may be itself, or absent: refused)
+        return st.sampled_from(["gut0", "gut1", "gut2", "gut1 gut2"])
     names = site_names if key == "grasp_sites" else joint_names
     return st.lists(st.sampled_from(names or ["missing"]), min_size=1, max_size=1).map(" ".join)
 
@@ -195,7 +197,8 @@ def geom_xml(draw, name: str, static: bool) -> str:
 
 @st.composite
 def scene(draw) -> tuple[str, list[str]]:
-    """An MJCF scene: random option, static geoms, free bodies, a jawed tool, one or two intestines."""
+    """An MJCF scene: random option, static geoms, free bodies, a jawed tool, one to three intestines
+    (touching: the later ones across the first, or inside it)."""
     timestep = draw(st.one_of(st.sampled_from((0.0005, 0.002, 0.01, 0.05)), st.floats(1e-4, 0.05)))
     integrator = draw(st.sampled_from(("Euler", "RK4", "implicit", "implicitfast")))
     gravity = " ".join(f"{draw(st.floats(-20.0, 20.0)):.3f}" for _ in range(3))
@@ -213,8 +216,10 @@ def scene(draw) -> tuple[str, list[str]]:
         actuators = ('<actuator><position joint="tool_slide" kp="100" ctrlrange="-0.6 0.2"/>'
                      '<position joint="jaw" kp="1" ctrlrange="0 0.7"/></actuator>')
     instances, keys_set = [], []
-    for i in range(draw(st.integers(1, 2))):
+    for i in range(draw(st.integers(1, 3))):  # several: they collide with each other
         config = draw(intestine_config(sites, joints))
+        if i > 0 and draw(st.booleans()):  # across the first one, just above it (else right inside it)
+            config["start"], config["direction"] = f"{0.1 * i:.2f} -0.2 {0.3 + 0.02 * i:.2f}", "0 1 0"
         keys_set.extend(config)
         entries = "".join(f"<config key={quoteattr(k)} value={quoteattr(v)}/>" for k, v in config.items())
         instances.append(f'<instance name="gut{i}">{entries}</instance>')

@@ -26,6 +26,8 @@ void vsc_forces_evaluate(const vsc_step_context* context, const double* q, const
     Q[3 * k + 1] = m * world->gravity[1];
     Q[3 * k + 2] = m * world->gravity[2];
   }
+  if (world->control_load)
+    for (int i = 0; i < 3 * n; ++i) Q[i] += world->control_load[i];
   vsc_rod_add_elastic_forces(rod, q, Q);
   if (world->grasp_count > 0) vsc_rod_add_grasp_forces(context, q, v, Q);
   if (rod->touched) vsc_rod_add_contact_forces(context, Q);

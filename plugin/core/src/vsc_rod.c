@@ -392,4 +392,6 @@ double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_da
 
 const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->sphere_xyz; }
 
+const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->sphere_velocity; }
+
 int vsc_rod_jacobian_half_width(const vsc_rod* rod) { return rod->jacobian_half_width; }

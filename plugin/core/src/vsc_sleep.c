@@ -25,6 +25,8 @@ void vsc_rest_wake_all(int control_count, const double* q, double* rest) {
   for (int k = 0; k < control_count; ++k) restart_rest(rest, q, k);
 }
 
+void vsc_rest_wake(int k, const double* q, double* rest) { restart_rest(rest, q, k); }
+
 // 1 if point k at q (m) is within rest_speed x rest_time of where its rest began.
 static int within_rest(const vsc_sleep_options* options, const double* q, const double* rest, int k) {
   const double *x = q + 3 * k, *r = rest + VSC_REST_SIZE * k + VSC_REST_ANCHOR;

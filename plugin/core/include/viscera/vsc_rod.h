@@ -151,6 +151,10 @@ void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]);
 /// The collision sphere centres (m, 3 per sphere) as last placed (owned by the rod).
 const double* vsc_rod_sphere_centres(const vsc_rod* rod);
 
+/// The collision spheres' velocities (m/s, 3 per sphere) as last placed with
+/// velocities (vsc_rod_update_spheres; owned by the rod).
+const double* vsc_rod_sphere_velocities(const vsc_rod* rod);
+
 /// The stiffest contact mode's damping rate c omega_contact^2 / k (1/s), as
 /// vsc_rod_frequencies last set it (0 before).
 double vsc_rod_contact_damping_rate(const vsc_rod* rod);

@@ -81,6 +81,10 @@ enum {
 /// reset (rest: VSC_REST_SIZE per point).
 void vsc_rest_wake_all(int control_count, const double* q, double* rest);
 
+/// Control point k awake, its rest beginning at q (m, 3n): a host's load on it
+/// (another intestine pressing) wakes it as a touching geom would.
+void vsc_rest_wake(int k, const double* q, double* rest);
+
 /// 1 if a control point at rest for `time_at_rest` (s) sleeps under `options`.
 static inline int vsc_sleeps(const vsc_sleep_options* options, double time_at_rest) {
   return options->enabled && time_at_rest >= options->rest_time;

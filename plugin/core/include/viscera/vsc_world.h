@@ -19,6 +19,9 @@ typedef struct vsc_world {
                             ///< about the geom position, world frame)
   struct vsc_grasp* grasps; ///< optional held points (see vsc_grasp.h); their reactions are written
   int grasp_count;
+  const double* control_load;  ///< optional: forces on the control points, constant over the step
+                               ///< (generalized, N, 3 per point; e.g. another rod's contacts, which
+                               ///< that rod computed and the host handed over); NULL: none
 } vsc_world;
 
 #endif  // VISCERA_VSC_WORLD_H
