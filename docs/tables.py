@@ -12,7 +12,8 @@ docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/c
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json likewise),
-docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/tolerance.json
+docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/contacts.json
+(python python/tools/validation/contacts/study.py), docs/validation/tolerance.json
 (python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
 python/tools/reference_band.py) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
@@ -314,6 +315,19 @@ def instances_cost() -> str:
     rows = [[name, f"{cost:.4f}"] for name, cost in d["wall_s_per_sim_s"].items()]
     rows.append([f"**two / one: {d['ratio_two_over_one']:.2f}x** (median of {d['runs']} runs' ratios)", ""])
     return _rows(["load (3 s, 2 ms steps)", "wall s per simulated s"], rows)
+
+
+def contacts() -> str:
+    """From docs/validation/contacts.json (python python/tools/validation/contacts/study.py)."""
+    rows = []
+    for r in _json("validation/contacts.json")["rows"]:
+        rows.append([f"{r['spacing']:g} r", f"{100 * r['ripple']['ripple']:.1f} % of {r['ripple']['mean_N']:.2f} N",
+                     f"{round(1e3 * r['sticking']['creep_m'], 3) + 0.0:.3f} mm",  # + 0.0: no -0.000
+                     f"{100 * r['pile']['overlap_of_diameter']:.1f} % of the diameter",
+                     f"{100 * r['pile']['floor_penetration_of_radius']:.1f} % of r",
+                     f"{r['ripple']['wall_s_per_sim_s']:.3f}, {r['pile']['wall_s_per_sim_s']:.3f}"])
+    return _rows(["sphere spacing", "tool force ripple (of its mean at 2 mm in)", "creep on a 10 degree slope, 2 s",
+                  "4 m pile: deepest overlap", "pile: into the floor", "wall s per sim s: sliding tool, pile"], rows)
 
 
 def config_keys() -> str:

@@ -143,3 +143,13 @@ def test_sensor_must_name_a_body():
       <sensor><plugin name="bad" instance="gut" objtype="site" objname="s"/></sensor></mujoco>"""
     with pytest.raises(ValueError, match="sensor 'bad' must name the body"):
         mujoco.MjModel.from_xml_string(xml)
+
+
+def test_a_sliding_tool_feels_the_spheres_less_as_they_close_up():
+    """A tool held 2 mm into a tube and slid along it (validation/contacts): its force swings by
+    two fifths of its mean over spheres one radius apart, by under a tenth at half a radius; the
+    penalty is per sphere, so the same indentation pushes about twice as hard."""
+    from validation.contacts.study import ripple
+    coarse, fine = ripple(1.0), ripple(0.5)
+    assert coarse["ripple"] > 0.3 and fine["ripple"] < 0.1
+    assert fine["mean_N"] == pytest.approx(2 * coarse["mean_N"], rel=0.15)
