@@ -145,3 +145,25 @@ def test_each_instance_senses_its_own_force_on_a_body():
     G = 9.81
     assert data.sensor("under_force").data[2] == pytest.approx(-(under_gut.mass + over_gut.mass) * G, rel=0.02)
     assert abs(data.sensor("over_force").data[2]) < 0.01 * over_gut.mass * G
+
+
+def test_the_shipped_scene_of_two_intestines_settles_one_across_the_other():
+    """assets/scenes/together.xml: the colon, dropped across the small bowel, rests partly on it
+    (its axis one small-bowel diameter plus its radius up) and partly on the floor, no part of either
+    sunk into the other or the floor by more than a tenth of the radii, without a recovery."""
+    import pathlib
+    model = mujoco.MjModel.from_xml_path(str(pathlib.Path(__file__).resolve().parents[2] / "assets" / "scenes" /
+                                             "together.xml"))
+    data = mujoco.MjData(model)
+    bowel, colon = viscera.intestine(model, "small_bowel"), viscera.intestine(model, "colon")
+    closest = np.inf
+    while data.time < 3.0:
+        mujoco.mj_step(model, data)
+        a, b = bowel.axis_points(data, 400), colon.axis_points(data, 200)
+        closest = min(closest, np.min(np.linalg.norm(a[:, None] - b[None], axis=2)))
+    assert closest >= 0.9 * (bowel.radius + colon.radius)
+    heights = colon.axis_points(data, 200)[:, 2]
+    assert heights.max() == pytest.approx(2 * bowel.radius + colon.radius, rel=0.1)
+    assert heights.min() >= 0.9 * colon.radius
+    for gut in (bowel, colon):
+        assert gut.recovery_count(data) == 0 and gut.divergence_count(data) == 0
