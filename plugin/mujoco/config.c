@@ -305,49 +305,65 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
   return 0;
 }
 
+// 1 if the model has a viscera.intestine instance other than this one.
+static int other_intestines(const mjModel* m, int instance) {
+  int slot = -1;
+  mjp_getPlugin("viscera.intestine", &slot);
+  for (int j = 0; j < m->nplugin; ++j)
+    if (j != instance && m->plugin[j] == slot) return 1;
+  return 0;
+}
+
 // 'tolerance': the resolution it chooses (vsc_resolution.h) for the keys not
-// given, or the limit it cannot be met within.
+// given, or the limit it cannot be met within. The choice sets the state's
+// size, so it reads nothing a user may change after load (the model's gravity,
+// a geom's contype, the timestep): standard gravity for the bending length, and
+// contact wherever a geom of a colliding type or another intestine exists.
 static int apply_tolerance(reader* r, vsc_plugin_config* c) {
   vsc_rod_def* d = &c->rod;
   const unsigned char* given = c->given;
   if (!given[VSC_KEY_tolerance]) return 0;
   const char* text = raw(r, "tolerance");
   if (!(c->tolerance < 1.0)) return fail(r, "attribute 'tolerance' = '%s' must be below 1 (a relative error)", text);
-  const mjtNum* g = r->m->opt.gravity;
-  int gravity_off = (r->m->opt.disableflags & mjDSBL_GRAVITY) != 0;
   vsc_resolution_request request = {
       .tolerance = c->tolerance, .length = d->length, .radius = d->radius, .mass_per_length = d->mass / d->length,
       .bending_rigidity = d->bending_rigidity,
       // the whole-length axial stiffness EA (N): springs, the bend springs' share and the global term
       .axial_stiffness = (d->stretch_stiffness + 4.0 * d->bend_stiffness + d->global_stretch_stiffness) * d->length,
-      .gravity = gravity_off ? 0.0 : sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]),
-      .contacts = d->self_collision || vsc_mujoco_geoms_any(r->m), .integrator = c->step.integrator};
+      .gravity = VSC_STANDARD_GRAVITY,
+      .contacts = d->self_collision || vsc_mujoco_geoms_possible(r->m) || other_intestines(r->m, r->instance),
+      .integrator = c->step.integrator};
   vsc_resolution* out = &c->resolution;
-  switch (vsc_resolution_choose(&request, out)) {
-    case VSC_RESOLUTION_OK: break;
-    case VSC_RESOLUTION_BELOW_FLOOR:
-      return fail(r, "attribute 'tolerance' = '%s' is below %.2g, the smallest relative error every validation "
-                  "case of a rod %s reaches (docs/config.md#tolerance)", text, out->floor,
-                  request.bending_rigidity > 0.0 ? "with a bending rigidity" : "of springs alone");
-    case VSC_RESOLUTION_CONTROL_POINTS:
-      return fail(r, "attribute 'tolerance' = '%s' needs %.0f control points for 'length' = %g m, more than the "
-                  "limit %d", text, out->needed, d->length, VSC_MAX_CONTROL_POINTS);
-    case VSC_RESOLUTION_COLLISION_SPHERES:
-      return fail(r, "attribute 'tolerance' = '%s' needs %.0f collision spheres for 'length' = %g m and 'radius' = "
-                  "%g m, more than the limit %d", text, out->needed, d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
-    case VSC_RESOLUTION_INVALID:
-      return fail(r, "attribute 'tolerance' = '%s' cannot be applied to this intestine's length, radius, mass and "
-                  "stiffnesses", text);
-  }
+  vsc_resolution_limit limit = vsc_resolution_choose(&request, out);
+  if (limit == VSC_RESOLUTION_BELOW_FLOOR)
+    return fail(r, "attribute 'tolerance' = '%s' is below %.2g, the smallest relative error every validation "
+                "case of a rod %s reaches (docs/config.md#tolerance)", text, out->floor,
+                request.bending_rigidity > 0.0 ? "with a bending rigidity" : "of springs alone");
+  if (limit == VSC_RESOLUTION_INVALID)
+    return fail(r, "attribute 'tolerance' = '%s' cannot be applied to this intestine's length, radius, mass and "
+                "stiffnesses", text);
+  // past a count's limit the tolerance is refused, unless that count was given: it then wins
+  if (!given[VSC_KEY_control_points] && out->needed_control_points > VSC_MAX_CONTROL_POINTS)
+    return fail(r, "attribute 'tolerance' = '%s' needs %.0f control points for 'length' = %g m, more than the "
+                "limit %d", text, out->needed_control_points, d->length, VSC_MAX_CONTROL_POINTS);
+  if (!given[VSC_KEY_collision_spheres] && out->needed_spheres > VSC_MAX_COLLISION_SPHERES)
+    return fail(r, "attribute 'tolerance' = '%s' needs %.0f collision spheres for 'length' = %g m and 'radius' = "
+                "%g m, more than the limit %d", text, out->needed_spheres, d->length, d->radius,
+                VSC_MAX_COLLISION_SPHERES);
   if (!given[VSC_KEY_control_points]) d->control_count = out->control_points;
   if (!given[VSC_KEY_samples_per_segment]) d->samples_per_segment = out->samples_per_segment;
   if (!given[VSC_KEY_collision_spheres]) d->collision_sphere_count = out->collision_spheres;
-  double accurate = vsc_resolution_substeps(out, r->m->opt.timestep);
-  if (c->auto_substeps && accurate > VSC_MAX_AUTO_SUBSTEPS)
-    return fail(r, "attribute 'tolerance' = '%s' needs %.0f substeps per %g s step with 'integrator' = '%s', more "
-                "than the limit %d: lower the timestep or choose another integrator", text, accurate,
-                r->m->opt.timestep, vsc_integrator_names[c->step.integrator], VSC_MAX_AUTO_SUBSTEPS);
   return 0;
+}
+
+int vsc_plugin_config_check_timestep(const vsc_plugin_config* c, double dt, char* error, int error_size) {
+  if (!c->given[VSC_KEY_tolerance] || !c->auto_substeps) return 0;
+  double accurate = vsc_resolution_substeps(&c->resolution, dt);
+  if (!(accurate > VSC_MAX_AUTO_SUBSTEPS)) return 0;
+  snprintf(error, (size_t)error_size, "viscera.intestine: attribute 'tolerance' = '%g' needs %.0f substeps per %g s "
+           "step with 'integrator' = '%s', more than the limit %d: lower the timestep or choose another integrator",
+           c->tolerance, accurate, dt, vsc_integrator_names[c->step.integrator], VSC_MAX_AUTO_SUBSTEPS);
+  return -1;
 }
 
 int vsc_plugin_config_substeps(const vsc_plugin_config* c, double elastic, double contact, double contact_damping_rate,

@@ -132,6 +132,12 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* co
 /// q (m, 3n): the spline's end tangents. Returns 0, or -1 with a message.
 int vsc_plugin_config_clamp(vsc_plugin_config* config, const double* q, char* error, int error_size);
 
+/// With a 'tolerance' and the substeps left to it: -1 with a message if the
+/// accuracy it asks for needs more than VSC_MAX_AUTO_SUBSTEPS per step dt (s),
+/// else 0. Checked when the model compiles (a timestep raised later is met
+/// with the most substeps allowed).
+int vsc_plugin_config_check_timestep(const vsc_plugin_config* config, double dt, char* error, int error_size);
+
 /// Substeps per step dt (s) when 'substeps' is not given: the fewest the
 /// stability estimate allows (vsc_stable_substeps with the rod's elastic and
 /// contact frequencies, rad/s, and contact damping rate, 1/s), and with a

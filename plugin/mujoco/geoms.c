@@ -100,9 +100,12 @@ static int touchable(const mjModel* m, int g) {
   return supported && filtered;
 }
 
-int vsc_mujoco_geoms_any(const mjModel* m) {
-  for (int g = 0; g < m->ngeom; ++g)
-    if (touchable(m, g)) return 1;
+int vsc_mujoco_geoms_possible(const mjModel* m) {
+  for (int g = 0; g < m->ngeom; ++g) {
+    int supported;
+    geom_type(m->geom_type[g], &supported);
+    if (supported) return 1;
+  }
   return 0;
 }
 

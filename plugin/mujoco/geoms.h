@@ -23,9 +23,10 @@ typedef struct vsc_mujoco_geoms {
 /// Returns 0, or -1 if memory ran out (then *out is freed and zeroed).
 int vsc_mujoco_geoms_create(const mjModel* m, vsc_mujoco_geoms* out);
 
-/// 1 if the model has a geom the intestine may touch (vsc_mujoco_geoms_create
-/// would keep it), else 0.
-int vsc_mujoco_geoms_any(const mjModel* m);
+/// 1 if the model has a geom of a type the intestine collides with, whatever
+/// its contype and conaffinity (a user may change those after load; what
+/// depends on this, the resolution a tolerance chooses, must not), else 0.
+int vsc_mujoco_geoms_possible(const mjModel* m);
 
 /// Release what vsc_mujoco_geoms_create built (a zeroed struct is fine).
 void vsc_mujoco_geoms_free(vsc_mujoco_geoms* geoms);

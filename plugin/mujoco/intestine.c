@@ -215,6 +215,10 @@ static int intestine_nstate(const mjModel* m, int instance) {
   vsc_plugin_config config;
   char error[ERROR_SIZE];
   if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) mju_error("%s", error);
+  if (vsc_plugin_config_check_timestep(&config, m->opt.timestep, error, ERROR_SIZE)) {
+    vsc_plugin_config_free(&config);
+    mju_error("%s", error);
+  }
   int n = config.rod.control_count;
   double* q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   int failed = !q || vsc_plugin_config_layout(&config, q, error, ERROR_SIZE);
@@ -518,6 +522,7 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
   int g = it->world.count;
   for (int p = 0; p < it->partner_count; ++p) {
     intestine* other = caches(m, d, it->partners[p]);
+    if (!other) return;  // (its capsules were added this step, so its caches exist)
     int spheres = other->config.rod.collision_sphere_count;
     vsc_partner_add_load(other->config.rod.control_count, spheres, world->geoms + g, world->geom_wrench + 6 * g,
                          other->load);

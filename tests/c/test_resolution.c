@@ -109,10 +109,12 @@ static void limits(void) {
   q.length = 1e5;  // 100 km of bowel
   q.contacts = 1;
   ENSURE(vsc_resolution_choose(&q, &r) == VSC_RESOLUTION_CONTROL_POINTS);
-  ENSURE(r.needed > 1e6);
+  ENSURE(r.needed_control_points > 1e6 && r.control_points == VSC_MAX_CONTROL_POINTS);
+  ENSURE(r.collision_spheres > 0 && r.accuracy_omega_h > 0.0);  // the rest still chosen
   q = beam(1e-2);
   q.radius = 1e-9;  // spheres a nanometre wide on a 0.5 m rod
   ENSURE(vsc_resolution_choose(&q, &r) == VSC_RESOLUTION_COLLISION_SPHERES);
+  ENSURE(r.needed_spheres > 1e7 && r.collision_spheres == VSC_MAX_COLLISION_SPHERES);
   q = beam(0.0);
   ENSURE(vsc_resolution_choose(&q, &r) == VSC_RESOLUTION_INVALID);
   q = beam(1e-2);

@@ -10,6 +10,8 @@ import mujoco
 import numpy as np
 import pytest
 
+import viscera
+
 from conftest import compile_scene
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -124,3 +126,23 @@ def test_the_table_the_core_reads_is_the_committed_studys():
                 assert max(e for m, e in errors.items() if int(m) >= n) <= bound * (1 + 1e-9)
     for row in study["verification"]:  # and through the key itself, every case within half
         assert row["error"] <= 0.5 * row["tolerance"], row
+
+
+def test_the_resolution_stays_when_the_model_changes_after_load():
+    """The tolerance's choice sets the state's size, so changing the model's gravity, a geom's
+    contype or the timestep after load must not change it: a new data steps with the same counts
+    (a timestep raised past the accuracy's 1024 substeps gets 1024)."""
+    model, data, gut = compile_scene('<geom type="plane" size="2 2 .1"/>', length=2.0, young_modulus=1e5,
+                                     tolerance=1e-2)
+    counts = (gut.control_count, gut.sphere_count)
+    model.opt.gravity[:] = 0.0
+    model.geom_contype[:] = 0
+    model.geom_conaffinity[:] = 0
+    model.opt.timestep = 0.05
+    fresh = mujoco.MjData(model)
+    for _ in range(3):
+        mujoco.mj_step(model, fresh)
+    again = viscera.intestine(model)
+    assert (again.control_count, again.sphere_count) == counts
+    assert again.stability()["substeps"] <= 1024
+    assert np.isfinite(again.positions(fresh)).all()

@@ -293,7 +293,7 @@ static void find_contacts(pass* p) {
     }
   }
   if (l->geom_count == 0) return;
-  const double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
+  const double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
   double contact = rod->def.radius * SKIP_SLACK;
   for (int k = 0; k < l->geom_count; ++k) {
     int g = l->geom_pairs[2 * k], i = l->geom_pairs[2 * k + 1];

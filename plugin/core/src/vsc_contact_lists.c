@@ -296,14 +296,16 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   }
   memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
-    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * 13 * (size_t)world->geom_count);
+    double* poses = (double*)realloc(l->geom_pose, sizeof(double) * (VSC_GEOM_POSE_SIZE + 1) * (size_t)world->geom_count);
     if (!poses) return 0;
     l->geom_pose = poses;
     l->built_geom_capacity = world->geom_count;
   }
   for (int g = 0; g < world->geom_count; ++g) {
-    memcpy(l->geom_pose + 12 * g, world->geoms[g].position, sizeof(double) * 3);
-    memcpy(l->geom_pose + 12 * g + 3, world->geoms[g].rotation, sizeof(double) * 9);
+    double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
+    memcpy(pose, world->geoms[g].position, sizeof(double) * 3);
+    memcpy(pose + 3, world->geoms[g].rotation, sizeof(double) * 9);
+    memcpy(pose + 12, world->geoms[g].size, sizeof(double) * 3);
   }
   l->built_geoms = world->geom_count;
   l->geoms = world->geoms;
@@ -352,16 +354,17 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
-    double* shift = l->geom_pose + 12 * (size_t)l->built_geom_capacity;
-    const double* pose = l->geom_pose + 12 * g;
-    double moved = 0.0, turned = 0.0;
+    double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
+    const double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
+    double moved = 0.0, turned = 0.0, grown = 0.0;
     for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
     for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
+    for (int a = 0; a < 3; ++a) grown += fabs(geom->size[a] - pose[12 + a]);
     if (geom->bound_radius > 0.0) {
-      // no surface point moved more than |dp| + R ||dR||_F
-      shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned);
+      // no surface point moved more than |dp| + R ||dR||_F + the sum of the size changes
+      shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned) + grown;
       if (!(shift[g] <= half)) return 0;
-    } else if (moved != 0.0 || turned != 0.0) {
+    } else if (moved != 0.0 || turned != 0.0 || grown != 0.0) {
       return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
     } else {
       shift[g] = 0.0;
@@ -384,7 +387,8 @@ int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
   if (geoms_fresh) {
     memset(l->geom_moved, 0, sizeof(double) * (size_t)spheres);
     if (world->geom_count > 0)  // (no geoms: no poses allocated)
-      memset(l->geom_pose + 12 * (size_t)l->built_geom_capacity, 0, sizeof(double) * (size_t)world->geom_count);
+      memset(l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity, 0,
+             sizeof(double) * (size_t)world->geom_count);
   }
   return 1;
 }

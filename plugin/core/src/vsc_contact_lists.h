@@ -11,6 +11,11 @@
 /// they stay valid until a sphere or a geom moves by half of it.
 #define VSC_CONTACT_MARGIN 1.0
 
+/// Numbers kept per geom at a geom list's build: position (3), rotation (9),
+/// size (3): a geom whose size changes (another intestine's capsule, whose
+/// segment stretches) moves its surface as surely as one that moves.
+#define VSC_GEOM_POSE_SIZE 15
+
 struct vsc_contact_lists {
   int sphere_count;
   int self_count, self_capacity;
@@ -25,7 +30,7 @@ struct vsc_contact_lists {
   int built_geom_capacity;
   double* sphere_xyz;         // sphere centres at the self pairs' build (3 per sphere) (m)
   double* geom_sphere_xyz;    // sphere centres at the geom pairs' build (3 per sphere) (m)
-  double* geom_pose;          // geom position and rotation at build (12 per geom), then each
+  double* geom_pose;          // geom position, rotation and size at build (VSC_GEOM_POSE_SIZE per geom), then each
                               // geom's surface motion since (1 per geom) (m)
   double* segment;            // per segment, each evaluation: midpoint (m, 3), half length (m)
   double* moved;              // per sphere, each evaluation: distance moved since the self build (m)

@@ -60,20 +60,21 @@ vsc_resolution_limit vsc_resolution_choose(const vsc_resolution_request* q, vsc_
   double segments = segments_for(rows, count, VSC_TOLERANCE_MARGIN * q->tolerance);
   if (segments < 0.0) return VSC_RESOLUTION_BELOW_FLOOR;
   out->segments_per_shape = segments;
+  vsc_resolution_limit limit = VSC_RESOLUTION_OK;
   double total = ceil(segments * q->length / shape - 1e-9);  // segments over the whole rod
   out->error_bound = envelope_at(rows, count, total * shape / q->length);
-  out->needed = total + 1.0;
-  if (out->needed > VSC_MAX_CONTROL_POINTS) return VSC_RESOLUTION_CONTROL_POINTS;
-  out->control_points = total + 1.0 < 4.0 ? 4 : (int)total + 1;
+  out->needed_control_points = fmax(4.0, total + 1.0);
+  if (out->needed_control_points > VSC_MAX_CONTROL_POINTS) limit = VSC_RESOLUTION_CONTROL_POINTS;
+  out->control_points = (int)fmin(out->needed_control_points, VSC_MAX_CONTROL_POINTS);
   out->samples_per_segment = 1;
 
   // spheres: the chain's sagitta d^2 / (8 r) within tolerance x r, never wider than r apart; one
   // radius apart (the default) where nothing can touch them
   double spacing = q->radius * (q->contacts ? fmin(1.0, sqrt(8.0 * q->tolerance)) : 1.0);
-  out->needed = ceil(q->length / spacing - 1e-9) + 1.0;
-  if (out->needed > VSC_MAX_COLLISION_SPHERES) return VSC_RESOLUTION_COLLISION_SPHERES;
-  out->collision_spheres = (int)out->needed;
-  out->needed = 0.0;
+  out->needed_spheres = fmax(2.0, ceil(q->length / spacing - 1e-9) + 1.0);
+  if (out->needed_spheres > VSC_MAX_COLLISION_SPHERES && limit == VSC_RESOLUTION_OK)
+    limit = VSC_RESOLUTION_COLLISION_SPHERES;
+  out->collision_spheres = (int)fmin(out->needed_spheres, VSC_MAX_COLLISION_SPHERES);
 
   // the fastest wave of length l: bending (2 pi / l)^2 sqrt(EI / mu), axial (2 pi / l) sqrt(EA / mu)
   double k = 2.0 * VSC_PI / shape;
@@ -82,7 +83,7 @@ vsc_resolution_limit vsc_resolution_choose(const vsc_resolution_request* q, vsc_
   out->accuracy_frequency = fmax(bend_wave, axial_wave);
   const vsc_scheme* scheme = &vsc_schemes[q->integrator];  // error ~ c (omega h)^p
   out->accuracy_omega_h = pow(q->tolerance / scheme->phase_coefficient, 1.0 / scheme->phase_order);
-  return VSC_RESOLUTION_OK;
+  return limit;
 }
 
 double vsc_resolution_substeps(const vsc_resolution* resolution, double dt) {

@@ -36,6 +36,10 @@
 /// over this share (its floor).
 #define VSC_TOLERANCE_MARGIN 0.5
 
+/// Standard gravity (m/s^2): the host's bending length is taken under it, as
+/// a scene's gravity may change after load and its resolution may not.
+#define VSC_STANDARD_GRAVITY 9.80665
+
 /// What the scene accepts and what the rod is.
 typedef struct vsc_resolution_request {
   double tolerance;         ///< relative error accepted, in (0, 1)
@@ -49,7 +53,9 @@ typedef struct vsc_resolution_request {
   vsc_integrator integrator;
 } vsc_resolution_request;
 
-/// Why a tolerance cannot be met (VSC_RESOLUTION_OK: it can).
+/// Why a tolerance cannot be met (VSC_RESOLUTION_OK: it can). Past a count's
+/// limit the count is clamped to it and the rest is still chosen, so a host may
+/// let a key given explicitly stand in for it.
 typedef enum vsc_resolution_limit {
   VSC_RESOLUTION_OK = 0,
   VSC_RESOLUTION_BELOW_FLOOR,        ///< below the smallest error every validation case reaches
@@ -69,11 +75,13 @@ typedef struct vsc_resolution {
   double floor;               ///< the group's smallest tolerance (its envelope at its finest N over the margin)
   double accuracy_frequency;  ///< rad/s: the fastest wave of length l, bending or axial
   double accuracy_omega_h;    ///< largest omega h keeping the integrator's error on it within tolerance
-  double needed;              ///< with a limit: the count the tolerance would need
+  double needed_control_points;  ///< what the tolerance needs, even past VSC_MAX_CONTROL_POINTS
+  double needed_spheres;         ///< likewise, past VSC_MAX_COLLISION_SPHERES
 } vsc_resolution;
 
-/// Choose the resolution for `request`; fills `out` (needed and floor also on
-/// failure, for the message) and returns why it cannot, or VSC_RESOLUTION_OK.
+/// Choose the resolution for `request`; fills `out` (the needs and the floor
+/// also when a limit is met, for the message) and returns the first limit met,
+/// or VSC_RESOLUTION_OK.
 vsc_resolution_limit vsc_resolution_choose(const vsc_resolution_request* request, vsc_resolution* out);
 
 /// Substeps per step dt (s) that keep the integrator's error on the fastest
