@@ -4,23 +4,18 @@
 #include <math.h>
 #include <string.h>
 
+#include "viscera/vsc_base.h"
 #include "viscera/vsc_spline.h"
-
-static void cross(const double a[3], const double b[3], double out[3]) {
-  out[0] = a[1] * b[2] - a[2] * b[1];
-  out[1] = a[2] * b[0] - a[0] * b[2];
-  out[2] = a[0] * b[1] - a[1] * b[0];
-}
 
 // A rotation (row-major, columns the local axes) whose local z is the unit vector z.
 static void frame_along(const double z[3], double rotation[9]) {
   double helper[3] = {1.0, 0.0, 0.0};
   if (fabs(z[0]) > 0.9) helper[0] = 0.0, helper[1] = 1.0;
   double x[3], y[3];
-  cross(helper, z, x);
+  vsc_cross(helper, z, x);
   double norm = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
   for (int c = 0; c < 3; ++c) x[c] /= norm;
-  cross(z, x, y);
+  vsc_cross(z, x, y);
   for (int row = 0; row < 3; ++row) {
     rotation[3 * row] = x[row];
     rotation[3 * row + 1] = y[row];
@@ -49,7 +44,7 @@ void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double
     frame_along(unit, g->rotation);
     double spin[3] = {0.0, 0.0, 0.0}, relative[3] = {vb[0] - va[0], vb[1] - va[1], vb[2] - va[2]};
     if (length2 > 0.0) {  // the axis turns at axis x relative / |axis|^2 (its stretch is the capsule's no concern)
-      cross(axis, relative, spin);
+      vsc_cross(axis, relative, spin);
       for (int c = 0; c < 3; ++c) spin[c] /= length2;
     }
     for (int c = 0; c < 3; ++c) {
@@ -93,7 +88,7 @@ void vsc_partner_add_load(int n, int spheres, const vsc_geom* capsules, const do
     double e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
     d[0] = d[1] = d[2] = 0.0;
     if (e2 > 0.0) {
-      cross(torque, e, d);
+      vsc_cross(torque, e, d);
       for (int c = 0; c < 3; ++c) d[c] /= 2.0 * e2;
     }
     double at_start[3] = {0.5 * f[0] - d[0], 0.5 * f[1] - d[1], 0.5 * f[2] - d[2]};

@@ -3,6 +3,7 @@
 
 #include <math.h>
 
+#include "viscera/vsc_base.h"
 #include "viscera/vsc_spline.h"
 
 
@@ -30,18 +31,12 @@ static double normalise(double v[3]) {
   return norm;
 }
 
-static void cross(const double a[3], const double b[3], double out[3]) {
-  out[0] = a[1] * b[2] - a[2] * b[1];
-  out[1] = a[2] * b[0] - a[0] * b[2];
-  out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 // A unit vector normal to unit t: t crossed with the axis it is least aligned with.
 static void any_normal(const double t[3], double out[3]) {
   double axis[3] = {0, 0, 0};
   int i = fabs(t[0]) <= fabs(t[1]) && fabs(t[0]) <= fabs(t[2]) ? 0 : (fabs(t[1]) <= fabs(t[2]) ? 1 : 2);
   axis[i] = 1.0;
-  cross(t, axis, out);
+  vsc_cross(t, axis, out);
   normalise(out);
 }
 
@@ -75,13 +70,13 @@ vsc_status vsc_skin_build(const double* q, int n, const vsc_skin_def* def, doubl
     double s = (double)r / (double)(rings - 1);
     axis_point(q, n, s, p, t);
     // carry k by the smallest rotation: b = normalise(t x k_prev), k = b x t
-    cross(t, k, b);
+    vsc_cross(t, k, b);
     if (!(normalise(b) > 1e-12)) {  // t turned onto k: restart from any normal
       any_normal(t, k);
-      cross(t, k, b);
+      vsc_cross(t, k, b);
       normalise(b);
     }
-    cross(b, t, k);
+    vsc_cross(b, t, k);
     normalise(k);
     double u = s * (double)(n - 1) - floor(s * (double)(n - 1));
     if (r == rings - 1) u = 1.0;

@@ -32,6 +32,13 @@ typedef enum vsc_status {
 /// pi, the one definition the core and the adapter use.
 #define VSC_PI 3.14159265358979323846
 
+/// out = a x b (3-vectors; out must not alias a or b).
+static inline void vsc_cross(const double a[3], const double b[3], double out[3]) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
 /// Human-readable name of a status code (static storage, never NULL).
 const char* vsc_status_string(vsc_status status);
 
