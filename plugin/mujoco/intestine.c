@@ -524,8 +524,7 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     intestine* other = caches(m, d, it->partners[p]);
     if (!other) return;  // (its capsules were added this step, so its caches exist)
     int spheres = other->config.rod.collision_sphere_count;
-    vsc_partner_add_load(other->config.rod.control_count, spheres, world->geoms + g, world->geom_wrench + 6 * g,
-                         other->load);
+    vsc_partner_add_load(other->rod, spheres, world->geoms + g, world->geom_wrench + 6 * g, other->load);
     other->loaded = 1;
     g += spheres - 1;
   }

@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "viscera/vsc_base.h"
-#include "viscera/vsc_spline.h"
+#include "viscera/vsc_place.h"
 
 // A rotation (row-major, columns the local axes) whose local z is the unit vector z.
 static void frame_along(const double z[3], double rotation[9]) {
@@ -62,21 +62,8 @@ void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double
   }
 }
 
-// force f (N) on sphere k of a rod of n control points and `spheres` spheres (uniform in
-// abscissa, as vsc_rod places them), spread onto its control points
-static void add_at_sphere(int n, int spheres, int k, const double f[3], double* load) {
-  vsc_basis basis = vsc_spline_basis(n, (double)k / (double)(spheres - 1));
-  for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
-    double w = basis.weight[j];
-    if (w == 0.0) continue;
-    double* l = load + 3 * (basis.first + j);
-    l[0] += w * f[0];
-    l[1] += w * f[1];
-    l[2] += w * f[2];
-  }
-}
-
-void vsc_partner_add_load(int n, int spheres, const vsc_geom* capsules, const double* wrench, double* load) {
+void vsc_partner_add_load(const vsc_rod* rod, int spheres, const vsc_geom* capsules, const double* wrench,
+                          double* load) {
   for (int k = 0; k + 1 < spheres; ++k) {
     const double *f = wrench + 6 * k, *torque = wrench + 6 * k + 3;
     if (f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0 && torque[0] == 0.0 && torque[1] == 0.0 && torque[2] == 0.0)
@@ -93,7 +80,7 @@ void vsc_partner_add_load(int n, int spheres, const vsc_geom* capsules, const do
     }
     double at_start[3] = {0.5 * f[0] - d[0], 0.5 * f[1] - d[1], 0.5 * f[2] - d[2]};
     double at_end[3] = {0.5 * f[0] + d[0], 0.5 * f[1] + d[1], 0.5 * f[2] + d[2]};
-    add_at_sphere(n, spheres, k, at_start, load);
-    add_at_sphere(n, spheres, k + 1, at_end, load);
+    vsc_rod_add_sphere_force(rod, k, at_start, load);
+    vsc_rod_add_sphere_force(rod, k + 1, at_end, load);
   }
 }

@@ -25,10 +25,12 @@ void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double
 
 /// Add the reactions on those capsules (`wrench`: 6 per capsule, force N and
 /// torque N m about its middle, averaged over a step; vsc_world.geom_wrench)
-/// to `load` (3 per control point of a rod of `n` control points and `spheres`
-/// collision spheres, generalized forces, N): each
+/// to `load` (3 per control point of `rod`, of `spheres` collision spheres;
+/// generalized forces, N): each
 /// capsule's force and torque across its axis become forces at its two
-/// spheres, spread onto the control points by the spline's weights there.
-void vsc_partner_add_load(int n, int spheres, const vsc_geom* capsules, const double* wrench, double* load);
+/// spheres, spread onto the control points as the rod's contacts spread theirs
+/// (vsc_rod_add_sphere_force).
+void vsc_partner_add_load(const vsc_rod* rod, int spheres, const vsc_geom* capsules, const double* wrench,
+                          double* load);
 
 #endif  // VISCERA_PLUGIN_PARTNERS_H

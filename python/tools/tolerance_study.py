@@ -36,7 +36,7 @@ from tqdm import tqdm  # noqa: E402
 
 from validation.cantilever.case import cantilever  # noqa: E402
 from validation.catenary.case import catenary  # noqa: E402
-from validation.common import LAST_RESOLUTION, RADIUS, SECOND_MOMENT, TIP_LENGTH, TIP_RIGIDITY, quiet_warnings  # noqa: E402
+from validation.common import LAST_COMPILED, RADIUS, SECOND_MOMENT, TIP_LENGTH, TIP_RIGIDITY, quiet_warnings  # noqa: E402
 from validation.hanging_rod.case import hanging_rod  # noqa: E402
 from validation.resting_penetration.case import resting_penetration  # noqa: E402
 from validation.tip_load.case import ELASTICA, tip_load  # noqa: E402
@@ -114,6 +114,12 @@ def write_header(envelopes: dict) -> None:
     HEADER.write_text("\n".join(lines) + "\n")
 
 
+def resolution(gut) -> dict:
+    """What the plugin chose for an intestine: counts, and substeps at its model's timestep."""
+    return {"control_points": gut.control_count, "samples_per_segment": gut.samples_per_segment,
+            "collision_spheres": gut.sphere_count, "substeps": gut.stability()["substeps"]}
+
+
 def verification(quick: bool) -> list[dict]:
     rows = []
     groups = {**GROUPS, **CONTACT}
@@ -128,7 +134,7 @@ def verification(quick: bool) -> list[dict]:
             error = abs(row["value"] - row["reference"]) / RADIUS if group == "contact" else relative_error(row)
             rows.append({"tolerance": tolerance, "group": group, "case": case, "error": error,
                          "wall_s_per_sim_s": row["wall_s_per_sim_s"], "run_s": time.perf_counter() - start,
-                         **LAST_RESOLUTION})
+                         **resolution(LAST_COMPILED["intestine"])})
     return rows
 
 

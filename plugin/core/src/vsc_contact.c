@@ -39,19 +39,6 @@ typedef struct pass {
   const double* damping_scale;  // per sphere, the factor on the contact damping (NULL: none)
 } pass;
 
-static inline __attribute__((always_inline)) void add_at_sphere(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
-  // weights and force in locals: the stores to Q then force no reloads
-  const vsc_basis* b = &rod->sphere_basis[sphere];
-  double* out = Q + 3 * b->first;
-  const double f0 = f[0], f1 = f[1], f2 = f[2];
-  const double w[VSC_SPLINE_SUPPORT] = {b->weight[0], b->weight[1], b->weight[2], b->weight[3]};
-  for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
-    out[3 * j] += w[j] * f0;
-    out[3 * j + 1] += w[j] * f1;
-    out[3 * j + 2] += w[j] * f2;
-  }
-}
-
 // Share of the penalty spring's push at depth `depth` (m) and separation speed
 // `separation` (m/s), see VSC_PUSH_OUT_SPEED: all of it down to
 // VSC_DEEP_CONTACT radii; from twice that depth on, all of it below half
@@ -225,7 +212,7 @@ static void push(pass* p, const found_contact* found) {
     if (scale) c *= scale[a];
     double normal = contact_force(rod, found->depth, found->n, found->relative, geom->friction, c, elongation, f, tangent);
     if (normal <= 0.0) return;
-    add_at_sphere(rod, a, f, p->Q);
+    vsc_place_add_at_sphere(rod, a, f, p->Q);
     if (p->world->geom_wrench) {
       double arm[3] = {found->point[0] - geom->position[0], found->point[1] - geom->position[1],
                        found->point[2] - geom->position[2]};
@@ -248,13 +235,13 @@ static void push(pass* p, const found_contact* found) {
   if (normal <= 0.0) return;
   double share[3];
   for (int k = 0; k < 3; ++k) share[k] = (1.0 - s) * f[k];
-  add_at_sphere(rod, a, share, p->Q);
+  vsc_place_add_at_sphere(rod, a, share, p->Q);
   for (int k = 0; k < 3; ++k) share[k] = s * f[k];
-  add_at_sphere(rod, a + 1, share, p->Q);
+  vsc_place_add_at_sphere(rod, a + 1, share, p->Q);
   for (int k = 0; k < 3; ++k) share[k] = -(1.0 - t) * f[k];
-  add_at_sphere(rod, b, share, p->Q);
+  vsc_place_add_at_sphere(rod, b, share, p->Q);
   for (int k = 0; k < 3; ++k) share[k] = -t * f[k];
-  add_at_sphere(rod, b + 1, share, p->Q);
+  vsc_place_add_at_sphere(rod, b + 1, share, p->Q);
   vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
   ++p->contacts;
 }

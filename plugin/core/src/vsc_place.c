@@ -21,3 +21,7 @@ void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
     if (v) vsc_basis_point(&rod->sphere_basis[i], v, rod->sphere_velocity + 3 * i);
   }
 }
+
+void vsc_rod_add_sphere_force(const vsc_rod* rod, int sphere, const double f[3], double* Q) {
+  vsc_place_add_at_sphere(rod, sphere, f, Q);
+}

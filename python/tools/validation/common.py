@@ -53,9 +53,8 @@ def peak_frequency(signal: np.ndarray, step: float, low: float, high: float) -> 
     return 0.5 * (a + b)
 
 
-# the resolution of the rod compiled last (its control points, samples per segment, collision
-# spheres, substeps at its timestep): what a `tolerance` chose, for tolerance_study.py
-LAST_RESOLUTION: dict = {}
+# the intestine compiled last: what a `tolerance` chose is read from it (tolerance_study.py)
+LAST_COMPILED: dict = {}
 
 
 def compile_rod(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = ""):
@@ -66,8 +65,7 @@ def compile_rod(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody
            f'{viscera.extension_xml("rod", **config)}<worldbody>{worldbody}</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
     gut = viscera.intestine(model)
-    LAST_RESOLUTION.update(control_points=gut.control_count, samples_per_segment=gut.samples_per_segment,
-                           collision_spheres=gut.sphere_count, substeps=gut.stability()["substeps"])
+    LAST_COMPILED["intestine"] = gut
     return model, mujoco.MjData(model), gut
 
 

@@ -13,4 +13,9 @@ void vsc_rod_update_samples(vsc_rod* rod, const double* q);
 /// be NULL: velocities are then left untouched); read them with vsc_rod_sphere_centres.
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
 
+/// Q += the force f (N) acting at collision sphere `sphere`, as generalized
+/// forces on the control points (3 per point, N): the spline's weights at the
+/// sphere's abscissa, as the contact pass spreads its forces.
+void vsc_rod_add_sphere_force(const vsc_rod* rod, int sphere, const double f[3], double* Q);
+
 #endif  // VISCERA_VSC_PLACE_H
