@@ -25,9 +25,11 @@ defaults change.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import pathlib
 import re
 import sys
+from collections.abc import Callable
 
 import viscera  # first: headless GL backend
 
@@ -37,22 +39,25 @@ from tqdm import tqdm  # noqa: E402
 
 from viscera import cli  # noqa: E402
 
+import posterior_wall  # noqa: E402
+
 SCENE = pathlib.Path("assets") / "scenes" / "abdomen.xml"  # run from the repository root
 DURATION = 6.0  # s: the shipped scene was settled with it (a rerun reproduces its points to the digit)
 HALF_WIDTH = (0.15, 0.125)  # the cavity's inner half sizes along x and y (m)
 LAYER_PITCH_RADII = 4.0     # rows and layers 4 radii apart: one tube diameter of clearance
+REST_WINDOW_S, REST_SPEED = 0.1, 0.01  # s, m/s: at rest, every control point moved less than 1 mm in 0.1 s
 SETTLING_PHYSICS = {"integrator": "rk4", "mass_matrix": "consistent"}  # config keys, where the scene has none
 BANK = pathlib.Path("assets") / "scenes" / "abdomen_starts.npz"  # the tasks' settled starts
 
 
 def _serpentine(x_outer: float, x_inner: float, y_first: float, y_last: float, rows: int, radius: float,
-                layers: int) -> np.ndarray:
+                layers: int, pitch_radii: float = LAYER_PITCH_RADII) -> np.ndarray:
     """Vertices of a serpentine from the corner (x_outer, y_first) on the wall: rows along x
     between x_outer and x_inner, stepping along y to y_last, then back on the next layer up."""
     points = []
     x_from, x_to = x_outer, x_inner
     for layer in range(layers):
-        z = radius + layer * LAYER_PITCH_RADII * radius
+        z = radius + layer * pitch_radii * radius
         ys = np.linspace(y_first, y_last, rows)
         for y in (ys if layer % 2 == 0 else ys[::-1]):
             points += [(x_from, y, z), (x_to, y, z)]
@@ -71,43 +76,96 @@ def _first(path: np.ndarray, length: float) -> np.ndarray:
     return np.vstack([path[:k], end])
 
 
-def initial_path(length: float, radius: float, layout: int = 0) -> np.ndarray:
+@dataclasses.dataclass(frozen=True)
+class Cavity:
+    """Where a scene's bowel is laid out before it falls: the pile's half sizes and centre (m, x y),
+    layers per half, rows and layers `pitch_radii` radii apart, the posterior wall's height (m) at
+    (x, y) (None: flat, at 0), the instance laid out (None: the scene's only one) and the other
+    instances' initial polylines (m, (k, 3)), which fall with it."""
+
+    half_width: tuple[float, float] = HALF_WIDTH
+    centre: tuple[float, float] = (0.0, 0.0)
+    layers: int = 2
+    pitch_radii: float = LAYER_PITCH_RADII
+    floor: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    bowel: str | None = None
+    others: tuple[tuple[str, tuple[float, ...]], ...] = ()
+
+
+# The anatomical abdomen (assets/scenes/abdomen_anatomical.xml): the small bowel in three layers
+# inside the colon's frame (x within 10 cm of the midline, y from 8.5 cm caudal, clear of the
+# sigmoid, to 10 cm cranial, clear of the transverse colon), on the curved posterior wall; the
+# colon from the caecum up the right flank, the transverse colon hanging cranially between the
+# flexures, down the left flank and the sigmoid's loop to the rectum.
+ANATOMICAL = Cavity(
+    half_width=(0.1125, 0.105), centre=(0.0, 0.0075), layers=3, pitch_radii=2.4, floor=posterior_wall.wall_height,
+    bowel="small_bowel",
+    others=(("colon", (0.14, -0.125, 0.0463, 0.14, 0.115, 0.0411, 0.07, 0.145, 0.09, -0.07, 0.145, 0.09,
+                       -0.14, 0.12, 0.0435, -0.14, -0.1, 0.0367, -0.1, -0.14, 0.053, -0.04, -0.125, 0.058,
+                       0.0, -0.14, 0.0525)),))
+CAVITIES = {"abdomen_anatomical": ANATOMICAL}  # by the scene's model name; any other: the box abdomen's
+
+
+def cavity_of(text: str) -> Cavity:
+    """The layout of the scene `text` (its <mujoco model=...>), the box abdomen's by default."""
+    match = re.search(r'<mujoco\s+model="([^"]*)"', text)
+    return CAVITIES.get(match.group(1) if match else "", Cavity())
+
+
+def initial_path(length: float, radius: float, layout: int = 0, cavity: Cavity = Cavity()) -> np.ndarray:
     """The two-serpentine polyline (m, (k, 3)) of `length` m, both ends on the wall. Layout 0 is
-    the shipped scene's; layout k > 0 draws its own (seeded by k): the rows' pitch (4 to 5.2
-    radii) and the halves' inner edges (up to 3 cm off the midline), as wide as the cavity holds, and
-    each interior vertex moved by up to 1 cm across the rows, so that each settles into its own
-    pile of loops."""
+    the shipped scene's; layout k > 0 draws its own (seeded by k): the rows' pitch (1 to 1.3 times
+    the cavity's) and the halves' inner edges (up to 3 cm off the midline), as wide as the cavity
+    holds, and each interior vertex moved by up to 1 cm across the rows, so that each settles
+    into its own pile of loops."""
     rng = np.random.default_rng(layout) if layout else None
-    pitch = LAYER_PITCH_RADII * (rng.uniform(1.0, 1.3) if rng else 1.0)
+    pitch = cavity.pitch_radii * (rng.uniform(1.0, 1.3) if rng else 1.0)
     inner_shift = rng.uniform(0.0, 0.03, 2) if rng else np.zeros(2)
     while True:
         try:
-            return _two_serpentines(length, radius, pitch, inner_shift, rng)
+            return _two_serpentines(length, radius, pitch, inner_shift, rng, cavity)
         except ValueError:  # too wide to hold the length: closer rows, then halves nearer the midline
-            if pitch <= LAYER_PITCH_RADII and inner_shift.max() < 1e-3:
+            if pitch <= cavity.pitch_radii and inner_shift.max() < 1e-3:
                 raise
-            if pitch > LAYER_PITCH_RADII:
-                pitch = max(LAYER_PITCH_RADII, 0.97 * pitch)
+            if pitch > cavity.pitch_radii:
+                pitch = max(cavity.pitch_radii, 0.97 * pitch)
             else:
                 inner_shift = 0.5 * inner_shift
 
 
+def _on_floor(half: np.ndarray, floor, step: float = 0.01) -> np.ndarray:
+    """A serpentine's vertices with its rows cut into pieces of at most `step` m, each raised by
+    the wall's height under it (floor(x, y), m)."""
+    points = [half[0]]
+    for a, b in zip(half[:-1], half[1:]):
+        pieces = max(1, int(np.ceil(np.linalg.norm(b[:2] - a[:2]) / step)))
+        points += [a + (b - a) * k / pieces for k in range(1, pieces + 1)]
+    points = np.array(points)
+    points[:, 2] += floor(points[:, 0], points[:, 1]) + 0.003  # the heightfield's facets are up to 3 mm off it
+    return points
+
+
 def _two_serpentines(length: float, radius: float, pitch: float, inner_shift: np.ndarray,
-                     rng: np.random.Generator | None) -> np.ndarray:
+                     rng: np.random.Generator | None, cavity: Cavity = Cavity()) -> np.ndarray:
     clearance = radius + 0.002  # from the walls
-    x_outer, x_inner = HALF_WIDTH[0] - clearance, 0.5 * pitch * radius
-    y_far = HALF_WIDTH[1] - clearance
+    x_outer, x_inner = cavity.half_width[0] - clearance, 0.5 * pitch * radius
+    y_far = cavity.half_width[1] - clearance
     rows = int((2.0 * y_far) // (pitch * radius)) + 1
-    left = _serpentine(-x_outer, -x_inner - inner_shift[0], y_far, -y_far, rows, radius, layers=2)  # left cranial
-    right = _serpentine(x_outer, x_inner + inner_shift[1], -y_far, y_far, rows, radius, layers=2)   # right caudal
+    layers, pitch_radii = cavity.layers, cavity.pitch_radii
+    left = _serpentine(-x_outer, -x_inner - inner_shift[0], y_far, -y_far, rows, radius, layers, pitch_radii)
+    right = _serpentine(x_outer, x_inner + inner_shift[1], -y_far, y_far, rows, radius, layers, pitch_radii)
     if rng is not None:  # the ends stay on their corners
         for half in (left, right):
             half[1:, 1] = np.clip(half[1:, 1] + rng.uniform(-0.01, 0.01, len(half) - 1), -y_far, y_far)
+    for half in (left, right):
+        half[:, :2] += cavity.centre
+    if cavity.floor is not None:
+        left, right = _on_floor(left, cavity.floor), _on_floor(right, cavity.floor)
     crossing = 0.0
     for _ in range(100):  # the crossing's length depends on where the halves end
         half = 0.5 * (length - crossing)
         a, b = _first(left, half), _first(right, half)
-        top = max(a[-1, 2], b[-1, 2]) + LAYER_PITCH_RADII * radius  # over the top layer
+        top = max(a[-1, 2], b[-1, 2]) + pitch_radii * radius  # over the top layer
         path = np.vstack([a, [a[-1, 0], a[-1, 1], top], [b[-1, 0], b[-1, 1], top], b[::-1]])
         total = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
         if abs(total - length) < 1e-10:
@@ -118,52 +176,90 @@ def _two_serpentines(length: float, radius: float, pitch: float, inner_shift: np
     return path
 
 
-def settle(scene: pathlib.Path, duration: float, quiet: bool = False, layout: int = 0) -> np.ndarray:
-    """Drop the initial path (`layout`, see initial_path) into the scene's cavity; return the
-    settled control points (m, (n, 3))."""
+def settle(scene: pathlib.Path, duration: float, quiet: bool = False, layout: int = 0) -> dict[str, np.ndarray]:
+    """Drop the initial paths (`layout`, see initial_path; the cavity's other instances from their
+    polylines) into the scene's cavity; return each instance's settled control points (m, (n, 3)),
+    by name, the laid-out bowel first."""
     text = scene.read_text()
-    probe = mujoco.MjModel.from_xml_string(_with_shape(text, "line", None))
-    gut = viscera.intestine(probe)
+    cavity = cavity_of(text)
+    shapes = {cavity.bowel: ("line", None)} | {name: ("line", None) for name, _ in cavity.others}
+    probe = mujoco.MjModel.from_xml_string(_with_shapes(text, shapes))
+    gut = viscera.intestine(probe, cavity.bowel)
     try:
-        path = initial_path(gut.rest_length, gut.radius, layout)
+        path = initial_path(gut.rest_length, gut.radius, layout, cavity)
     except ValueError as error:  # an intestine too long for this cavity: the user's scene, found before stepping
         raise cli.UserError(f"{scene}: {error}") from error
-    model = mujoco.MjModel.from_xml_string(_with_settling_physics(_with_shape(text, "polyline", path)))
+    shapes = {cavity.bowel: ("polyline", path)} | {
+        name: ("polyline", np.reshape(points, (-1, 3))) for name, points in cavity.others}
+    model = mujoco.MjModel.from_xml_string(_with_settling_physics(_with_shapes(text, shapes)))
     data = mujoco.MjData(model)
-    gut = viscera.intestine(model)
+    guts = [viscera.intestine(model, cavity.bowel)] + [viscera.intestine(model, name) for name, _ in cavity.others]
     mujoco.mj_forward(model, data)
     steps = int(round(duration / model.opt.timestep))
-    for _ in tqdm(range(steps), desc="settling", unit="step", disable=quiet):
+    window = min(steps, int(round(REST_WINDOW_S / model.opt.timestep)))
+    before = {}
+    for step in tqdm(range(steps), desc="settling", unit="step", disable=quiet):
+        if step == steps - window:
+            before = {gut.name: gut.positions(data).copy() for gut in guts}
         mujoco.mj_step(model, data)
-    speed = float(np.abs(gut.velocities(data)).max())
-    if not quiet:
-        print(f"settled after {duration:g} s: fastest control point {speed * 1000:.2f} mm/s, "
-              f"divergences {gut.divergence_count(data)}, length {gut.length(data):.4f} m")
-    if gut.divergence_count(data) or speed > 0.01:
-        raise RuntimeError(f"the intestine has not come to rest (fastest point {speed:.3g} m/s); settle longer")
-    return gut.positions(data).copy()
+    settled = {}
+    for gut in guts:
+        # at rest: no control point moved more than REST_SPEED x the window over its last
+        # REST_WINDOW_S (a speed read at one instant would count a micrometre's jitter)
+        speed = float(np.linalg.norm(gut.positions(data) - before[gut.name], axis=1).max()) / (window * model.opt.timestep)
+        if not quiet:
+            print(f"{gut.name}: settled after {duration:g} s: fastest control point {speed * 1000:.2f} mm/s over the "
+                  f"last {REST_WINDOW_S:g} s, divergences {gut.divergence_count(data)}, length {gut.length(data):.4f} m")
+        if gut.divergence_count(data) or speed > REST_SPEED:
+            raise RuntimeError(f"{gut.name} has not come to rest (fastest point {speed:.3g} m/s over the last "
+                               f"{REST_WINDOW_S:g} s); settle longer")
+        settled[gut.name] = gut.positions(data).copy()
+    return settled
 
 
 def _with_settling_physics(text: str) -> str:
-    """The scene text with SETTLING_PHYSICS's keys added to the intestine where it sets none, and
-    sleeping off (it settles to rest, not to below the sleep speed; RK4 with the consistent
+    """The scene text with SETTLING_PHYSICS's keys added to every intestine where it sets none,
+    and sleeping off (it settles to rest, not to below the sleep speed; RK4 with the consistent
     matrix cannot sleep anyway)."""
     text = re.sub(r'<config key="sleep" value="[^"]*"/>', '<config key="sleep" value="0"/>', text)
-    added = "".join(f'<config key="{key}" value="{value}"/>' for key, value in SETTLING_PHYSICS.items()
-                    if f'<config key="{key}"' not in text)
-    text, count = re.subn(r'(<instance name="[^"]*">)', lambda match: match.group(1) + added, text, count=1)
-    if count != 1:
+
+    def add(match: re.Match) -> str:
+        block = match.group(0)
+        added = "".join(f'<config key="{key}" value="{value}"/>' for key, value in SETTLING_PHYSICS.items()
+                        if f'<config key="{key}"' not in block)
+        return match.group(1) + added + block[len(match.group(1)):]
+
+    text, count = re.subn(r'(<instance name="[^"]*">).*?</instance>', add, text, flags=re.S)
+    if count < 1:
         raise ValueError("the scene must hold the intestine's plugin instance")
     return text
 
 
-def _with_shape(text: str, shape: str, points: np.ndarray | None, digits: int = 12) -> str:
-    """The scene text with the intestine's `shape` and `points` configs replaced (m, to 10^-digits)."""
+def _with_shape(text: str, shape: str, points: np.ndarray | None, digits: int = 12,
+                instance: str | None = None) -> str:
+    """The scene text with the intestine's `shape` and `points` configs replaced (m, to 10^-digits):
+    of the instance called `instance`, or of the scene's only one."""
     value = "" if points is None else " ".join(f"{x:.{digits}f}" for x in np.asarray(points).ravel())
-    text, shapes = re.subn(r'<config key="shape" value="[^"]*"/>', f'<config key="shape" value="{shape}"/>', text)
-    text, pointss = re.subn(r'<config key="points" value="[^"]*"/>', f'<config key="points" value="{value}"/>', text)
+    blocks = list(re.finditer(r'<instance name="([^"]*)">.*?</instance>', text, flags=re.S))
+    if instance is not None:
+        blocks = [block for block in blocks if block.group(1) == instance]
+    if len(blocks) != 1:
+        raise ValueError("the scene must hold exactly one intestine 'shape' and one 'points' config"
+                         + (f" in its instance {instance!r}" if instance else ""))
+    block = blocks[0].group(0)
+    block, shapes = re.subn(r'<config key="shape" value="[^"]*"/>', f'<config key="shape" value="{shape}"/>', block)
+    block, pointss = re.subn(r'<config key="points" value="[^"]*"/>', f'<config key="points" value="{value}"/>',
+                             block)
     if shapes != 1 or pointss != 1:
-        raise ValueError("the scene must hold exactly one intestine 'shape' and one 'points' config")
+        raise ValueError("the scene must hold exactly one intestine 'shape' and one 'points' config"
+                         + (f" in its instance {instance!r}" if instance else ""))
+    return text[:blocks[0].start()] + block + text[blocks[0].end():]
+
+
+def _with_shapes(text: str, shapes: dict[str | None, tuple[str, np.ndarray | None]], digits: int = 12) -> str:
+    """The scene text with each named instance's shape and points replaced (see _with_shape)."""
+    for name, (shape, points) in shapes.items():
+        text = _with_shape(text, shape, points, digits, name)
     return text
 
 
@@ -193,8 +289,9 @@ def main(argv: list[str] | None = None) -> int:
     with cli.user_errors("settle.py", args.verbose):
         cli.load_model(args.scene)  # the scene as given loads, before a long settle
         text = args.scene.read_text()
+        cavity = cavity_of(text)
         try:
-            _with_shape(text, "line", None)
+            _with_shapes(text, {cavity.bowel: ("line", None)} | {name: ("line", None) for name, _ in cavity.others})
         except ValueError as error:
             raise cli.UserError(f"{args.scene}: {error}") from error
         if args.bank and not str(args.out).endswith(".npz"):
@@ -203,16 +300,22 @@ def main(argv: list[str] | None = None) -> int:
             raise cli.UserError(f"--out {args.out}: a scene is written as .xml (a .npz needs --bank)")
         try:
             if args.bank:
-                starts = np.stack([settle(args.scene, args.duration, True, layout)
-                                   for layout in tqdm(range(1, args.bank + 1), desc="layouts", disable=args.quiet)])
-                np.savez_compressed(args.out, control_points=np.round(starts, 6))
-                print(f"wrote {len(starts)} settled starts of {starts.shape[1]} control points into {args.out}")
+                layouts = [settle(args.scene, args.duration, True, layout)
+                           for layout in tqdm(range(1, args.bank + 1), desc="layouts", disable=args.quiet)]
+                names = list(layouts[0])
+                starts = {name: np.round(np.stack([each[name] for each in layouts]), 6) for name in names}
+                arrays = {"control_points": starts[names[0]]} | {
+                    f"{name}_control_points": starts[name] for name in names[1:]}
+                np.savez_compressed(args.out, **arrays)
+                print(f"wrote {len(layouts)} settled starts of {', '.join(str(len(starts[n][0])) for n in names)} "
+                      f"control points into {args.out}")
                 return 0
             settled = settle(args.scene, args.duration, args.quiet)
         except RuntimeError as error:  # not at rest: settle's verdict on the user's --duration
             raise cli.UserError(str(error)) from error
-        pathlib.Path(args.out).write_text(_with_shape(text, "control_points", settled, digits=6))
-    print(f"wrote {len(settled)} settled control points into {args.out}")
+        shapes = {(name if len(settled) > 1 else None): ("control_points", points) for name, points in settled.items()}
+        pathlib.Path(args.out).write_text(_with_shapes(text, shapes, digits=6))
+    print(f"wrote {', '.join(str(len(points)) for points in settled.values())} settled control points into {args.out}")
     return 0
 
 

@@ -3,8 +3,8 @@ nothing, over seeds, with the wall time and the intestine's divergence recoverie
 written to docs/tasks/rates.json.
 
     python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
-        [--policies scripted random nothing] [--max-steps N] [--merge docs/tasks/rates.json]
-        [--out docs/tasks/rates.json]
+        [--policies scripted random nothing] [--max-steps N] [--scene abdomen|anatomical]
+        [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
 
 The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
 and doing nothing over 20 (random 90 s episodes are slow), from two runs:
@@ -12,6 +12,10 @@ and doing nothing over 20 (random 90 s episodes are slow), from two runs:
     python python/tools/task_rates.py --policies scripted --out docs/tasks/rates.json
     python python/tools/task_rates.py --seeds 20 --policies random nothing --merge docs/tasks/rates.json \
         --out docs/tasks/rates.json
+
+the scripted policies on the anatomical abdomen into docs/tasks/rates_anatomical.json:
+
+    python python/tools/task_rates.py --scene anatomical --policies scripted --out docs/tasks/rates_anatomical.json
 
 and the stability check of random actions (a learning agent's first hours: 50 unseen seeds per
 task, 300 control steps each, every recovery counted) into docs/tasks/random_stability.json:
@@ -45,10 +49,10 @@ POLICIES = ("scripted", "random", "nothing")
 OUT = pathlib.Path("docs") / "tasks" / "rates.json"
 
 
-def episode(task: str, seed: int, policy: str, max_steps: int | None = None) -> dict:
-    """One episode of `task` from `seed` under `policy` (whole, or its first `max_steps` control
-    steps): success, simulated and wall seconds, the intestine's recoveries and divergences."""
-    env = viscera.tasks.load(task, seed=seed)
+def episode(task: str, seed: int, policy: str, max_steps: int | None = None, scene: str = "abdomen") -> dict:
+    """One episode of `task` on `scene` from `seed` under `policy` (whole, or its first `max_steps`
+    control steps): success, simulated and wall seconds, the intestines' recoveries and divergences."""
+    env = viscera.tasks.load(task, seed=seed, scene=scene)
     spec = env.action_spec()
     rng = np.random.RandomState(seed)
     act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
@@ -64,18 +68,19 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None) -> 
         else:
             action = np.zeros(spec.shape)
         step = env.step(action)
-    gut = viscera.intestine(env.physics.model.ptr)
+    guts = viscera.intestines(env.physics.model.ptr)
     data = env.physics.data.ptr
     return {"task": task, "seed": seed, "policy": policy, "success": bool(env.task.success(env.physics)),
             "simulated_s": float(env.physics.data.time), "wall_s": time.perf_counter() - start,
-            "control_steps": steps, "recoveries": gut.recovery_count(data), "divergences": gut.divergence_count(data)}
+            "control_steps": steps, "recoveries": sum(gut.recovery_count(data) for gut in guts),
+            "divergences": sum(gut.divergence_count(data) for gut in guts)}
 
 
 def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False,
-          max_steps: int | None = None) -> dict:
+          max_steps: int | None = None, scene: str = "abdomen") -> dict:
     """Per task and policy: the success rate over `seeds`, the seeds that succeeded, the median
     wall time per episode, the recoveries and divergences (each episode's, and their total)."""
-    jobs = [(task, seed, policy, max_steps) for task in tasks for policy in policies for seed in seeds]
+    jobs = [(task, seed, policy, max_steps, scene) for task in tasks for policy in policies for seed in seeds]
     with concurrent.futures.ProcessPoolExecutor(workers or os.cpu_count()) as pool:
         rows = list(tqdm(pool.map(episode, *zip(*jobs)), total=len(jobs), desc="episodes", disable=quiet))
     out: dict = {}
@@ -107,11 +112,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--merge", type=cli.input_file,
                         help="a rates JSON whose other policies and tasks are kept beside this run's")
     parser.add_argument("--out", type=cli.output_file(".json"), help=f"where to write the rates (e.g. {OUT})")
+    parser.add_argument("--scene", choices=sorted(viscera.tasks.scene.SCENES), default="abdomen",
+                        help="the cavity the tasks load (default abdomen)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    result = {"control_timestep_s": 0.02, "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
-              "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet, max_steps=args.max_steps)}
+    result = {"control_timestep_s": 0.02, "scene": args.scene,
+              "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
+              "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet, max_steps=args.max_steps,
+                             scene=args.scene)}
     if args.max_steps:
         result["max_control_steps"] = args.max_steps
     if args.merge:  # this run's policies over the merged file's

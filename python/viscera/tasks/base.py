@@ -51,6 +51,7 @@ from dm_control.suite import base
 import viscera
 from viscera.checks import checked_integer
 from viscera.tasks import scene
+from viscera.tasks import scene as scene_module  # where a parameter is called scene
 
 AXIS_SAMPLES = 100      # intestine axis points observed (3 cm apart on 3 m)
 MAX_AXIS_SAMPLES = 100_000
@@ -69,11 +70,35 @@ class Physics(dm_mujoco.Physics):
     """The abdomen with named accessors for the tasks."""
 
     def intestine(self) -> viscera.Intestine:
+        """The bowel the tasks work on: the scene's first intestine instance (the anatomical
+        scene's small bowel; its colon is the second)."""
         model = self.model.ptr
         cached = getattr(self, "_intestine", None)
         if cached is None or cached.model is not model:  # reload_from_* replaces the model
-            cached = self._intestine = viscera.intestine(model)
+            cached = self._intestine = viscera.intestines(model)[0]
         return cached
+
+    def wall_height(self, x: float, y: float) -> float:
+        """The posterior wall's height (m) at (x, y) (m): the top of a heightfield geom called
+        posterior_wall (the anatomical scene's, bilinear between its samples as MuJoCo's
+        triangles are near enough for a drawn site), else 0 (the box abdomen's floor)."""
+        model = self.model.ptr
+        geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "posterior_wall")
+        if geom < 0 or model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_HFIELD:
+            return 0.0
+        field = model.geom_dataid[geom]
+        rows, columns = model.hfield_nrow[field], model.hfield_ncol[field]
+        size = model.hfield_size[field]
+        heights = model.hfield_data[model.hfield_adr[field]:model.hfield_adr[field] + rows * columns]
+        local = np.array([x, y]) - self.data.geom_xpos[geom][:2]
+        u = np.clip((local[0] + size[0]) / (2 * size[0]) * (columns - 1), 0, columns - 1)
+        v = np.clip((local[1] + size[1]) / (2 * size[1]) * (rows - 1), 0, rows - 1)
+        i, j = min(int(v), rows - 2), min(int(u), columns - 2)
+        fv, fu = v - i, u - j
+        grid = heights.reshape(rows, columns)
+        value = ((1 - fv) * ((1 - fu) * grid[i, j] + fu * grid[i, j + 1]) +
+                 fv * ((1 - fu) * grid[i + 1, j] + fu * grid[i + 1, j + 1]))
+        return float(self.data.geom_xpos[geom][2] + value * size[2])
 
     def axis_points(self, count: int = AXIS_SAMPLES) -> np.ndarray:
         return self.intestine().axis_points(self.data.ptr, count)
@@ -275,8 +300,10 @@ class BowelTask(base.Task):
     HOLD_S = 0.0          # s the condition must hold for success
     TIME_LIMIT_S = 20.0   # s, the default episode length
 
-    def __init__(self, random=None, axis_samples: int = AXIS_SAMPLES, randomize: bool = True):
+    def __init__(self, random=None, axis_samples: int = AXIS_SAMPLES, randomize: bool = True,
+                 scene: str = scene.DEFAULT_SCENE):
         super().__init__(random=random)
+        self.scene = scene_module.scene_named(scene)  # the cavity (scene.SCENES): "abdomen" or "anatomical"
         self.axis_samples = axis_samples
         self.randomize = randomize
         self.episode: scene.Episode | None = None
@@ -333,7 +360,8 @@ class BowelTask(base.Task):
         config = self.intestine_config()
         if self.camera is not None:
             config = dict(config, draw_capsules=str(PIXEL_CAPSULES))
-        return scene.compose(self.TOOLS, episode, target, config, self.TARGET_HALF_M, show_target=self.HAS_TARGET)
+        return scene.compose(self.TOOLS, episode, target, config, self.TARGET_HALF_M, show_target=self.HAS_TARGET,
+                             scene=self.scene.name)
 
     def intestine_config(self) -> dict[str, str]:
         """Extra intestine config keys of this task (e.g. a marked band)."""
@@ -349,7 +377,7 @@ class BowelTask(base.Task):
         physics.reload_from_xml_string(self.scene_xml(self.episode))
 
     def initialize_episode(self, physics: Physics) -> None:
-        self.episode = scene.draw_episode(self.random) if self.randomize else None
+        self.episode = scene.draw_episode(self.random, scene=self.scene.name) if self.randomize else None
         self._held_since = None
         self._failed = False
         self.prepare(physics)
@@ -413,8 +441,10 @@ class BowelTask(base.Task):
             over = np.all(np.abs(axis[:, :2] - (x, y)) <= half + radius, axis=1)
             return int(np.count_nonzero(np.diff(over.astype(int)) == 1) + over[0])
 
-        x, y = scene.place_target(self.random, coverage_at, loops_at)
+        x, y = scene.place_target(self.random, coverage_at, loops_at, region=self.scene.target_region)
         physics.named.model.site_pos["target_area"][:2] = (x, y)
+        if physics.wall_height(x, y) > 0.0:  # a curved wall: the patch drawn on it
+            physics.named.model.site_pos["target_area"][2] = physics.wall_height(x, y) + 0.0015
         mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
 
     # -- success that lasts
@@ -495,7 +525,7 @@ class Environment(control.Environment):
         return float(self._step_limit) * self.control_timestep()
 
 
-BUILD_OPTIONS = ("time_limit", "control_timestep", "axis_samples", "randomize")  # every task's, besides its own
+BUILD_OPTIONS = ("time_limit", "control_timestep", "axis_samples", "randomize", "scene")  # every task's, besides its own
 
 
 def own_options(task_class: type[BowelTask]) -> tuple[str, ...]:
@@ -506,11 +536,12 @@ def own_options(task_class: type[BowelTask]) -> tuple[str, ...]:
 
 def build(task_class: type[BowelTask], seed: int | None = None, time_limit: float | None = None,
           control_timestep: float = 0.02, axis_samples: int = AXIS_SAMPLES, randomize: bool = True,
-          **options) -> Environment:
+          scene: str = scene_module.DEFAULT_SCENE, **options) -> Environment:
     """The environment of any task class, the one factory (viscera.tasks.load): its episodes drawn
     from numpy's RandomState(seed); time_limit in s (default the task's TIME_LIMIT_S),
     control_timestep in s; axis_samples, the intestine axis points observed; randomize False:
-    every episode the shipped scene's bowel, tissue, tilt and target. `options` are the task's
+    every episode the shipped scene's bowel, tissue, tilt and target; scene, the cavity
+    (viscera.tasks.scene.SCENES: "abdomen", the default, or "anatomical"). `options` are the task's
     own (its __init__'s keywords besides BowelTask's: clear_area's end_on_success). The physics
     is built from the shipped scene with the task's tools; every reset rebuilds it for its episode."""
     own = own_options(task_class)
@@ -518,7 +549,7 @@ def build(task_class: type[BowelTask], seed: int | None = None, time_limit: floa
         if name not in own:
             raise TypeError(f"load() got an unexpected keyword argument {name!r}")
     task = task_class(random=np.random.RandomState(seed), axis_samples=checked_axis_samples(axis_samples),
-                      randomize=randomize, **options)
+                      randomize=randomize, scene=scene, **options)
     task.control_timestep_s = control_timestep
     physics = Physics.from_xml_string(task.scene_xml(None))
     return Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,

@@ -41,10 +41,10 @@ class ClearArea(base.BowelTask):
     POLICY = ClearingGesture
 
     def __init__(self, random=None, end_on_success: bool = True, axis_samples: int = base.AXIS_SAMPLES,
-                 randomize: bool = True):
+                 randomize: bool = True, scene: str = base.scene.DEFAULT_SCENE):
         """end_on_success False: a lasting success does not end the episode (e.g. to watch a
         gesture finish)."""
-        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
+        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize, scene=scene)
         self.end_on_success = end_on_success
 
     def condition(self, physics: Physics) -> bool:

@@ -40,7 +40,6 @@ from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Phase, 
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
-CAVITY_LOW, CAVITY_HIGH = np.array([-0.12, -0.10]), np.array([0.12, 0.10])  # m: where loops are laid, x y
 LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
 # axis points a carry is planned on (3 cm apart on 3 m): a finer observation is resampled to
 # them, since a plan costs 34 ms on 100 points and 1.8 s on 1000
@@ -85,6 +84,9 @@ class ClearingGesture:
         # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
         # and they slide back
         self.carry_height = carry_height
+        # m, x y: where loops may be laid, the scene's floor inside its walls (and its colon)
+        region = np.array(env.task.scene.lay_region)
+        self.lay_low, self.lay_high = region[:, 0], region[:, 1]
         self.tools = Tools(env)  # trocars, working points, actuators
         self.coordinates = self.tools.coordinates
         self.radius = physics.intestine().radius
@@ -189,7 +191,7 @@ class ClearingGesture:
             pick = axis[index, :2]
             for direction in np.column_stack([np.cos(angles), np.sin(angles)]):
                 for distance in self.carry_distances:
-                    drop = np.clip(pick + direction * distance, CAVITY_LOW, CAVITY_HIGH)
+                    drop = np.clip(pick + direction * distance, self.lay_low, self.lay_high)
                     if not shaft_within_reach(self.tools.trocar["grasper"], np.append(drop, LAY_HEIGHT)):
                         continue
                     points = carry.carried(axis, index, drop, roots, self.mesentery_reach)
@@ -210,7 +212,7 @@ class ClearingGesture:
             index = candidates[int(np.argmax(axis[candidates, 2]))]
             side = self._exit_side(axis, index)
             drop = axis[index, :2] + side * (self._exit_distance(axis[index, :2], side) + self.clearance_cap)
-            return index, np.clip(drop, CAVITY_LOW, CAVITY_HIGH), side
+            return index, np.clip(drop, self.lay_low, self.lay_high), side
         return choice
 
     def _exposed(self, axis: np.ndarray, index: int) -> bool:

@@ -45,8 +45,9 @@ class GraspLift(base.BowelTask):
     TIME_LIMIT_S = 15.0
     POLICY = GraspLiftPolicy
 
-    def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):
-        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
+    def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True,
+                 scene: str = base.scene.DEFAULT_SCENE):
+        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize, scene=scene)
         self.band = (1.5 - BAND_M / 2, 1.5 + BAND_M / 2)  # m along the rest axis: drawn per episode
 
     def intestine_config(self) -> dict[str, str]:

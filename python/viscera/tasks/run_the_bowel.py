@@ -48,8 +48,9 @@ class RunTheBowel(base.BowelTask):
     TIME_LIMIT_S = 40.0
     POLICY = RunTheBowelPolicy
 
-    def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True):
-        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize)
+    def __init__(self, random=None, axis_samples: int = base.AXIS_SAMPLES, randomize: bool = True,
+                 scene: str = base.scene.DEFAULT_SCENE):
+        super().__init__(random=random, axis_samples=axis_samples, randomize=randomize, scene=scene)
         self.mark = 1.5  # m along the rest axis: drawn per episode
         self._reset_run()
 

@@ -1,15 +1,22 @@
-"""The tasks' scene: the abdomen with the tools a task picks, and the episode a seed draws.
+"""The tasks' scene: a cavity with the tools a task picks, and the episode a seed draws.
 
-The shipped abdomen (assets/scenes/abdomen.xml) is the one source of the cavity and of each
-kind of tool: `compose` keeps its walls, cameras, lights and intestine, removes its tools, and
-adds the task's tool set, each a copy of the abdomen's tool of that kind (its trocar body,
-actuators and force sensor) renamed and placed at a trocar. Graspers are given to the intestine
-(`grasp_sites`, `grasp_joints`), so their jaws hold what they close on.
+Two cavities ship (SCENES, by the name tasks are loaded with: viscera.tasks.load(name, seed,
+scene=...)):
+- "abdomen" (assets/scenes/abdomen.xml), the default: the box cavity with a 3 m bowel;
+- "anatomical" (assets/scenes/abdomen_anatomical.xml): curved walls, a 5.06 m small bowel
+  framed by the colon, a second intestine instance it touches.
+Each scene file is the one source of its cavity and of each kind of tool: `compose` keeps its
+walls, cameras, lights and intestines, removes its tools, and adds the task's tool set, each a
+copy of the scene's tool of that kind (its trocar body, actuators and force sensor) renamed and
+placed at a trocar. The tasks work on the scene's first intestine instance, the bowel (the small
+bowel; the colon only frames it). Graspers are given to the bowel (`grasp_sites`,
+`grasp_joints`), so their jaws hold what they close on.
 
 `draw_episode` draws, from the task's RandomState, what differs between episodes (every range
 and its source in docs/tasks.md):
-- a settled start from the bank (assets/scenes/abdomen_starts.npz, made by
-  `python python/tools/settle.py --bank 24`: 24 layouts dropped into this cavity and settled);
+- a settled start from the scene's bank (assets/scenes/abdomen_starts.npz, made by
+  `python python/tools/settle.py --bank 24`: 24 layouts dropped into the cavity and settled;
+  abdomen_anatomical_starts.npz likewise, the colon's settled points beside the bowel's);
 - tissue parameters around the model's defaults: mass per length, the springs' stiffness,
   friction against the walls and tools and against itself, the mesentery's stiffness and depth;
 - the table's tilt, 0 to 15 degrees in any direction (gravity turned by it);
@@ -40,6 +47,37 @@ def scene_file(name: str) -> pathlib.Path:
 
 ABDOMEN = "abdomen.xml"
 STARTS = "abdomen_starts.npz"
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A cavity the tasks load: its MJCF and bank of settled starts (files of assets/scenes), where
+    targets are drawn and where the clearing gesture lays loops ((x low, x high), (y low, y high),
+    m: on the floor inside the walls, and inside the colon where there is one)."""
+
+    name: str
+    file: str
+    starts: str
+    target_region: tuple[tuple[float, float], tuple[float, float]]
+    lay_region: tuple[tuple[float, float], tuple[float, float]]
+
+
+SCENES = {
+    "abdomen": Scene("abdomen", ABDOMEN, STARTS, target_region=((-0.08, 0.08), (-0.07, 0.07)),
+                     lay_region=((-0.12, 0.12), (-0.10, 0.10))),
+    "anatomical": Scene("anatomical", "abdomen_anatomical.xml", "abdomen_anatomical_starts.npz",
+                        target_region=((-0.07, 0.07), (-0.06, 0.07)), lay_region=((-0.09, 0.09), (-0.08, 0.09))),
+}
+DEFAULT_SCENE = "abdomen"
+
+
+def scene_named(name: str) -> Scene:
+    """The scene called `name` (a key of SCENES); a clear error naming the known ones otherwise."""
+    if not isinstance(name, str) or name not in SCENES:
+        raise ValueError(f"scene = {name!r}: must be one of {sorted(SCENES)}")
+    return SCENES[name]
+
+
 TOOL_KINDS = ("grasper", "retractor")  # the abdomen's tools, by name, each the template of its kind
 TROCARS = {"right": (0.07, -0.06, 0.15), "left": (-0.07, -0.06, 0.15)}  # m, on the anterior wall
 G = 9.81  # m/s^2
@@ -78,6 +116,7 @@ class Episode:
     mesentery_length: float    # m
     tilt_deg: float            # the table's tilt
     tilt_azimuth_deg: float    # the direction it tilts towards (0: the patient's left, x)
+    others: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)  # m: the other intestines' start
 
     @property
     def gravity(self) -> np.ndarray:
@@ -85,23 +124,41 @@ class Episode:
         return G * np.array([-np.sin(tilt) * np.cos(azimuth), -np.sin(tilt) * np.sin(azimuth), -np.cos(tilt)])
 
 
-_STARTS_CACHE: dict[str, np.ndarray] = {}
+_STARTS_CACHE: dict[str, dict[str, np.ndarray]] = {}
 
 
-def settled_starts() -> np.ndarray:
-    """The bank of settled starts (m, (K, n, 3)), read once per process."""
-    path = scene_file(STARTS)
+def _bank(starts: str) -> dict[str, np.ndarray]:
+    """A bank of settled starts by key (m, (K, n, 3) each), read once per process."""
+    path = scene_file(starts)
     if str(path) not in _STARTS_CACHE:
         with np.load(path) as bank:
-            _STARTS_CACHE[str(path)] = bank["control_points"]
+            _STARTS_CACHE[str(path)] = {key: bank[key] for key in bank.files}
     return _STARTS_CACHE[str(path)]
 
 
-def draw_episode(random: np.random.RandomState, length: float = 3.0) -> Episode:
-    """Draw a start and the tissue and table for one episode from `random` (the task's)."""
-    starts = settled_starts()
+def settled_starts(scene: str = DEFAULT_SCENE) -> np.ndarray:
+    """The scene's bank of the bowel's settled starts (m, (K, n, 3)), read once per process."""
+    return _bank(scene_named(scene).starts)["control_points"]
+
+
+def bowel_length(scene: str = DEFAULT_SCENE) -> float:
+    """The rest length (m) of the scene's bowel (its first intestine instance)."""
+    root = ElementTree.fromstring(scene_file(scene_named(scene).file).read_text())
+    return float(next(c.get("value") for c in root.find("extension/plugin/instance").findall("config")
+                      if c.get("key") == "length"))
+
+
+def draw_episode(random: np.random.RandomState, length: float | None = None, scene: str = DEFAULT_SCENE) -> Episode:
+    """Draw a start and the tissue and table for one episode of `scene` from `random` (the
+    task's); `length` (m) is the bowel's (None: the scene's)."""
+    bank = _bank(scene_named(scene).starts)
+    starts = bank["control_points"]
+    length = bowel_length(scene) if length is None else length
     index = int(random.randint(len(starts)))
+    others = {key[:-len("_control_points")]: points[index] for key, points in bank.items()
+              if key.endswith("_control_points")}
     return Episode(
+        others=others,
         start=index, control_points=starts[index], mass=float(random.uniform(*MASS_PER_LENGTH)) * length,
         stiffness_scale=float(random.uniform(*STIFFNESS_SCALE)), friction=float(random.uniform(*FRICTION)),
         self_friction=float(random.uniform(*SELF_FRICTION)),
@@ -173,13 +230,14 @@ def _numbers(values) -> str:
 
 def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tuple | None = None,
             intestine_config: dict[str, str] | None = None, target_half: tuple | None = None,
-            show_target: bool = True) -> str:
-    """The abdomen's MJCF with `tools` in place of its own, the intestine and the gravity of
-    `episode` (None: the shipped scene's), the target site at `target` ((x, y) m on the
-    posterior wall; None: where the scene has it) of half sizes `target_half` ((x, y) m; None:
-    the scene's) and extra intestine config keys; a task without a target draws none
-    (`show_target` False: the site stays, invisible)."""
-    root = ElementTree.fromstring(scene_file(ABDOMEN).read_text())
+            show_target: bool = True, scene: str = DEFAULT_SCENE) -> str:
+    """The MJCF of `scene` (a key of SCENES) with `tools` in place of its own, the intestines and
+    the gravity of `episode` (None: the shipped scene's), the target site at `target` ((x, y) m
+    on the posterior wall, or (x, y, z) m; None: where the scene has it) of half sizes
+    `target_half` ((x, y) m; None: the scene's) and extra config keys of the bowel (its first
+    intestine); a task without a target draws none (`show_target` False: the site stays,
+    invisible)."""
+    root = ElementTree.fromstring(scene_file(scene_named(scene).file).read_text())
     worldbody, actuators, sensors = root.find("worldbody"), root.find("actuator"), root.find("sensor")
     templates = {}
     for kind in TOOL_KINDS:
@@ -207,6 +265,10 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
     if episode is not None:
         root.find("option").set("gravity", _numbers(episode.gravity))
         _config(instance, "points", _numbers(episode.control_points))
+        for other in root.findall("extension/plugin/instance")[1:]:
+            if other.get("name") in episode.others:
+                _config(other, "shape", "control_points")
+                _config(other, "points", _numbers(episode.others[other.get("name")]))
         length = float(next(c.get("value") for c in instance.findall("config") if c.get("key") == "length"))
         for key, value in tissue_config(length, episode.mass, episode.stiffness_scale, episode.friction,
                                         episode.self_friction, episode.mesentery_stiffness,
@@ -216,7 +278,7 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
         _config(instance, key, value)
     site = worldbody.find("site[@name='target_area']")
     if target is not None:
-        z = float(site.get("pos").split()[2])
+        z = float(target[2]) if len(target) > 2 else float(site.get("pos").split()[2])
         site.set("pos", _numbers((target[0], target[1], z)))
     if not show_target:
         site.set("rgba", "0 0 0 0")
