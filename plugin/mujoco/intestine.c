@@ -51,7 +51,6 @@ typedef struct intestine {
   vsc_geom* all_geoms;    // MuJoCo's candidate geoms, then the partners' capsules
   double* all_wrench;     // the reaction on each of them, averaged over a step (6 each)
   double* load;           // loads the lower instances handed over this step (3 per control point, N)
-  double* capsule_mass;   // each of its capsules' effective mass for the lower ones (kg; partners.h)
   int loaded;             // 1: load holds something
 } intestine;
 
@@ -66,7 +65,6 @@ static void intestine_free(intestine* it) {
   free(it->all_geoms);
   free(it->all_wrench);
   free(it->load);
-  free(it->capsule_mass);
   free(it);
 }
 
@@ -105,18 +103,6 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     intestine_free(it);
     return NULL;
   }
-  int spheres = it->config.rod.collision_sphere_count;
-  double* scratch = (double*)malloc(sizeof(double) * 4 * (size_t)n);
-  it->capsule_mass = (double*)malloc(sizeof(double) * (size_t)(spheres > 1 ? spheres - 1 : 1));
-  if (!scratch || !it->capsule_mass) {
-    free(scratch);
-    strcpy(error, "viscera.intestine: out of memory");
-    intestine_free(it);
-    return NULL;
-  }
-  vsc_partner_capsule_masses(it->rod, n, it->config.rod.mass, spheres, it->config.rod.pinned,
-                             it->config.rod.pinned_count, scratch, it->capsule_mass);
-  free(scratch);
   if (it->config.auto_substeps)  // here, not in the first step: about 1-2 ms, which no step should pay
     vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
   return it;
@@ -467,9 +453,8 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
     vsc_rod_update_spheres(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
                            s + other->layout.offset[VSC_STATE_VELOCITIES]);
     double friction = fmax(it->config.rod.self_friction, other->config.rod.self_friction);  // as a geom pair's
-    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, other->config.rod.radius,
-                         other->capsule_mass, friction,
-                         0.5 * m->opt.timestep, m->opt.timestep, it->all_geoms + g);
+    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, other->config.rod.radius, friction,
+                         0.5 * m->opt.timestep, it->all_geoms + g);
     g += other->config.rod.collision_sphere_count - 1;
   }
   return g;

@@ -23,8 +23,8 @@ static void frame_along(const double z[3], double rotation[9]) {
   }
 }
 
-void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, const double* masses, double friction,
-                          double ahead, double step, vsc_geom* out) {
+void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double friction, double ahead,
+                          vsc_geom* out) {
   const double *x = vsc_rod_sphere_centres(rod), *v = vsc_rod_sphere_velocities(rod);
   for (int k = 0; k + 1 < spheres; ++k) {
     const double *va = v + 3 * k, *vb = v + 3 * k + 3;
@@ -59,8 +59,6 @@ void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, const 
     g->bound_radius = 0.5 * length + radius;
     g->friction = friction;
     g->is_static = 0;
-    g->load_mass = masses[k];
-    g->load_step = step;
   }
 }
 
@@ -84,39 +82,5 @@ void vsc_partner_add_load(const vsc_rod* rod, int spheres, const vsc_geom* capsu
     double at_end[3] = {0.5 * f[0] + d[0], 0.5 * f[1] + d[1], 0.5 * f[2] + d[2]};
     vsc_rod_add_sphere_force(rod, k, at_start, load);
     vsc_rod_add_sphere_force(rod, k + 1, at_end, load);
-  }
-}
-
-// Mobility (1/kg) at a point whose unit force along x spreads as `weights`
-// (3 per control point) over control points of lumped masses `lumped` (0: pinned).
-static double mobility(const double* weights, const double* lumped, int n) {
-  double sum = 0.0;
-  for (int j = 0; j < n; ++j)
-    if (lumped[j] > 0.0) sum += weights[3 * j] * weights[3 * j] / lumped[j];
-  return sum;
-}
-
-void vsc_partner_capsule_masses(const vsc_rod* rod, int n, double mass, int spheres, const int* pinned,
-                                int pinned_count, double* scratch, double* out) {
-  double* lumped = scratch;       // n: the uniform spline's lumped masses, the ends half (kg); pinned 0
-  double* weights = scratch + n;  // 3 n: a unit force's generalized forces
-  double interior = mass / (double)(n - 1);
-  for (int j = 0; j < n; ++j) lumped[j] = j == 0 || j == n - 1 ? 0.5 * interior : interior;
-  for (int p = 0; p < pinned_count; ++p) lumped[pinned[p]] = 0.0;
-  const double unit[3] = {1.0, 0.0, 0.0}, half[3] = {0.5, 0.0, 0.0};
-  for (int k = 0; k + 1 < spheres; ++k) {
-    double largest = 0.0;
-    for (int part = 0; part < 3; ++part) {  // at sphere k, at sphere k + 1, at their middle
-      memset(weights, 0, sizeof(double) * 3 * (size_t)n);
-      if (part < 2) {
-        vsc_rod_add_sphere_force(rod, k + part, unit, weights);
-      } else {
-        vsc_rod_add_sphere_force(rod, k, half, weights);
-        vsc_rod_add_sphere_force(rod, k + 1, half, weights);
-      }
-      double m = mobility(weights, lumped, n);
-      largest = m > largest ? m : largest;
-    }
-    out[k] = largest > 0.0 ? 1.0 / largest : 0.0;
   }
 }

@@ -19,21 +19,9 @@
 /// placed `ahead` seconds along its velocity: the core holds a geom still over
 /// a step, and a partner held where it will be at mid-step (ahead = dt / 2)
 /// meets the rod where it moves to, not where it was (a tube falling at 2 m/s
-/// moves 4 mm, a third of its radius, in a 2 ms step). The rod takes their
-/// reaction as a load held over `step` (s, MuJoCo's timestep): each capsule
-/// carries its effective mass (`masses`, kg: vsc_partner_capsule_masses) and that step (vsc_geom.load_mass), so
-/// that the contacts on it stay within the rod's explicit limits.
-void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, const double* masses, double friction,
-                          double ahead, double step, vsc_geom* out);
-
-/// The effective mass (kg) of each of `rod`'s spheres - 1 capsules for a force
-/// on it, into `out`: 1 / its largest mobility (the acceleration a unit force
-/// gives its point, at either sphere or its middle, through the spline's
-/// weights and the lumped masses, total `mass` kg over n control points, of
-/// the free ones), 0 where every point it moves is pinned (it cannot move).
-/// `scratch`: 3 n doubles. Constant for a rod: computed once, at creation.
-void vsc_partner_capsule_masses(const vsc_rod* rod, int n, double mass, int spheres, const int* pinned,
-                                int pinned_count, double* scratch, double* out);
+/// moves 4 mm, a third of its radius, in a 2 ms step).
+void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double friction, double ahead,
+                          vsc_geom* out);
 
 /// Add the reactions on those capsules (`wrench`: 6 per capsule, force N and
 /// torque N m about its middle, averaged over a step; vsc_world.geom_wrench)

@@ -1,10 +1,11 @@
 """The cavity scene's control loop: real-time factor and per-step latency, with peers.
 
-    python python/tools/bench_cavity.py [--runs 5] [--loads gesture sweep] [--json out.json]
+    python python/tools/bench_cavity.py [--runs 5] [--loads gesture sweep] [--scene anatomical] [--json out.json]
 
 Three loads, each a list of controls replayed on bare MjModel/MjData from a start, timing
 every mj_step (the full control loop step: MuJoCo's step and the plugin's compute and advance,
-one 2 ms step) with perf_counter_ns:
+one MuJoCo step: 2 ms in the box abdomen, 1 ms in the anatomical one) with perf_counter_ns, on
+the scene --scene names (viscera.tasks.scene.SCENES: abdomen, the default, or anatomical):
   - gesture: the clearing gesture, played once through the clear_area task (seed 0) to record
     its scene, its settled start and its controls (tools moving, the grasper taking and
     releasing holds), then replayed on that scene from that start;
@@ -63,17 +64,17 @@ class Load(NamedTuple):
     start: dict | None    # qpos, and the intestine's control points (m) and velocities (m/s); None: the model's
 
 
-def record_gesture(duration: float = 20.0) -> Load:
-    """The clearing gesture through clear_area's seed-0 episode: its scene, its settled start and
-    its controls at every physics step."""
+def record_gesture(duration: float = 20.0, scene_name: str = "abdomen") -> Load:
+    """The clearing gesture through clear_area's seed-0 episode on `scene_name`: its scene, its
+    settled start and its controls at every physics step."""
     from viscera.tasks.gesture import ClearingGesture
-    env = viscera.tasks.load("clear_area", seed=0, time_limit=duration, end_on_success=False)
+    env = viscera.tasks.load("clear_area", seed=0, time_limit=duration, end_on_success=False, scene=scene_name)
     policy = ClearingGesture(env)
     step = env.reset()
     model, data = env.physics.model.ptr, env.physics.data.ptr
-    gut = viscera.intestine(model)
-    start = {"qpos": data.qpos.copy(), "positions": gut.positions(data).copy(),
-             "velocities": gut.velocities(data).copy()}
+    guts = viscera.intestines(model)
+    start = {"qpos": data.qpos.copy(), "positions": [gut.positions(data).copy() for gut in guts],
+             "velocities": [gut.velocities(data).copy() for gut in guts]}
     xml = env.task.scene_xml(env.task.episode)
     substeps = int(round(env.control_timestep() / model.opt.timestep))
     controls = []
@@ -99,19 +100,23 @@ def sweep_controls(model: mujoco.MjModel, duration: float = 20.0) -> np.ndarray:
     return np.where(model.actuator_ctrllimited.astype(bool), controls, 0.0)
 
 
-# config keys each variant adds to the intestine's instance
+# config keys each variant adds to the bowel's instance (the scene's first)
 VARIANT_CONFIG = {"sleep off": {"sleep": "0"},
                   "RK4, consistent mass": {"integrator": "rk4", "mass_matrix": "consistent", "sleep": "0"},
                   "consistent mass": {"mass_matrix": "consistent", "sleep": "0"},
-                  "spheres 1.5 r": {"collision_spheres": "161"},
+                  "spheres 1.5 r": {},  # collision_spheres: ceil(length / 1.5 r) + 1, from the scene
                   "implicit, 1 substep": {"integrator": "implicit", "substeps": "1", "sleep": "0"},
                   "no self-collision": {"self_collision": "0"}}
 
 
 def variant_xml(name: str, text: str | None = None) -> str:
-    """A cavity scene (default: the shipped one), whole, with a variant's config keys added, or
-    with the intestine removed."""
+    """A cavity scene (default: the shipped abdomen), whole, with a variant's config keys added to
+    its bowel, or with the intestines removed."""
     text = scene.scene_file(scene.ABDOMEN).read_text() if text is None else text
+    if name == "spheres 1.5 r":
+        gut = viscera.intestines(mujoco.MjModel.from_xml_string(text))[0]
+        return scene.with_intestine_config(text, {"collision_spheres": str(int(np.ceil(
+            gut.rest_length / (1.5 * gut.radius))) + 1)})
     if name in VARIANT_CONFIG:
         return scene.with_intestine_config(text, VARIANT_CONFIG[name])
     if name == "rigid only":
@@ -127,9 +132,9 @@ def time_replay(model: mujoco.MjModel, controls: np.ndarray, start: dict | None 
     if start is not None:
         data.qpos[:] = start["qpos"]
         if model.nplugin:
-            gut = viscera.intestine(model)
-            gut.positions(data)[:] = start["positions"]
-            gut.velocities(data)[:] = start["velocities"]
+            for gut, positions, velocities in zip(viscera.intestines(model), start["positions"], start["velocities"]):
+                gut.positions(data)[:] = positions
+                gut.velocities(data)[:] = velocities
     mujoco.mj_forward(model, data)
     latency = np.empty(len(controls))
     clock = time.perf_counter_ns
@@ -160,16 +165,16 @@ def _summary(per_run: list, timestep: float) -> dict:
 
 
 def run(runs: int = 5, duration: float = 20.0, quiet: bool = False, loads: tuple = LOADS,
-        variants: tuple = VARIANTS) -> dict:
+        variants: tuple = VARIANTS, scene_name: str = "abdomen") -> dict:
     loads_run = {}
     if "gesture" in loads or "rest" in loads:
-        gesture = record_gesture(duration)
+        gesture = record_gesture(duration, scene_name)
         if "gesture" in loads:
             loads_run["gesture"] = gesture
         if "rest" in loads:
             loads_run["rest"] = gesture._replace(controls=np.zeros_like(gesture.controls))
     if "sweep" in loads:
-        shipped = variant_xml("full")
+        shipped = variant_xml("full", scene.scene_file(scene.scene_named(scene_name).file).read_text())
         loads_run["sweep"] = Load(shipped, sweep_controls(mujoco.MjModel.from_xml_string(shipped), duration), None)
     models = {load: {name: mujoco.MjModel.from_xml_string(variant_xml(name, entry.xml)) for name in variants}
               for load, entry in loads_run.items()}
@@ -182,7 +187,7 @@ def run(runs: int = 5, duration: float = 20.0, quiet: bool = False, loads: tuple
                 for name in variants:
                     samples[load][name].append(time_replay(models[load][name], ctrl, loads_run[load].start))
                     bar.update(1)
-    results = {"timestep_s": timestep, "runs": runs, "loads": {}}
+    results = {"scene": scene_name, "timestep_s": timestep, "runs": runs, "loads": {}}
     for load in controls:
         results["loads"][load] = {"steps": len(controls[load]), "variants": {
             name: _summary(samples[load][name], timestep) for name in variants}}
@@ -202,7 +207,7 @@ def report(results: dict) -> str:
     for load, entry in results["loads"].items():
         variants = entry["variants"]
         full = variants.get("full", next(iter(variants.values())))
-        lines += [f"cavity scene, {LOAD_TITLES[load]}: {entry['steps']} steps of "
+        lines += [f"{results.get('scene', 'abdomen')} scene, {LOAD_TITLES[load]}: {entry['steps']} steps of "
                   f"{results['timestep_s'] * 1e3:g} ms, medians over {results['runs']} runs",
                   f"{'variant':<30}{'wall s/sim s':>13}{'real time':>11}{'p50 ms':>9}{'p99 ms':>9}{'p99.9 ms':>10}"
                   f"{'max ms':>9}{'p99.9/p50':>11}{'p99 / full':>12}"]
@@ -232,10 +237,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="loads to replay (default: both)")
     parser.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS),
                         help="variants to time (default: all)")
+    parser.add_argument("--scene", choices=sorted(scene.SCENES), default="abdomen",
+                        help="the cavity (default abdomen)")
     parser.add_argument("--json", type=cli.output_file(".json"), help="also write the figures to this JSON file")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
-    results = run(args.runs, args.duration, args.quiet, tuple(args.loads), tuple(args.variants))
+    results = run(args.runs, args.duration, args.quiet, tuple(args.loads), tuple(args.variants), args.scene)
     print(report(results))
     if args.json:
         with open(args.json, "w") as f:

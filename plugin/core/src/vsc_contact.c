@@ -1,10 +1,8 @@
 // Penalty contacts (see viscera/vsc_contact.h), in two phases: the narrow phase
 // over the candidate lists (vsc_contact_lists.c) finds every contact and its
 // spheres' load; the damping is limited where that load passes its explicit
-// limit (vsc_contact_load.h), and stiffness and damping both where a geom takes
-// its reaction as a load held over a step (another intestine, below); then each
-// contact's normal push and friction, the touch records friction reads. And the
-// penalty's potential energy.
+// limit (vsc_contact_load.h); then each contact's normal push and friction, the
+// touch records friction reads. And the penalty's potential energy.
 #include "vsc_contact.h"
 
 #include <math.h>
@@ -39,7 +37,6 @@ typedef struct pass {
   int geom;                // index of the geom being queried
   const double* segment;   // per segment: midpoint (m, 3), half length (m); this evaluation's (NULL: not used)
   const double* damping_scale;  // per sphere, the factor on the contact damping (NULL: none)
-  const double* load_scale;     // per geom, the factors on stiffness then damping (NULL: none)
 } pass;
 
 // Share of the penalty spring's push at depth `depth` (m) and separation speed
@@ -58,7 +55,8 @@ static inline double push_share(double depth, double radius, double separation) 
 // `relative` (m/s); `elongation` is its stick spring (NULL: none). Writes the
 // total force into f and the tangential velocity into tangent.
 static inline __attribute__((always_inline)) double contact_force(const vsc_rod* rod, double depth, const double n[3], const double relative[3],
-                            double mu, double k, double c, const double* elongation, double f[3], double tangent[3]) {
+                            double mu, double c, const double* elongation, double f[3], double tangent[3]) {
+  double k = rod->def.contact_stiffness;
   double separation = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
   double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
   double normal = push_share(depth, rod->def.radius, separation) * k * spring - c * separation;
@@ -211,13 +209,8 @@ static void push(pass* p, const found_contact* found) {
     const vsc_geom* geom = &p->world->geoms[b];
     const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * a : NULL;
     const double* elongation = stick && (int)stick[0] == b ? stick + 1 : NULL;
-    double k = rod->def.contact_stiffness;
     if (scale) c *= scale[a];
-    if (p->load_scale && geom->load_mass > 0.0) {
-      k *= p->load_scale[2 * b];
-      c *= p->load_scale[2 * b + 1];
-    }
-    double normal = contact_force(rod, found->depth, found->n, found->relative, geom->friction, k, c, elongation, f, tangent);
+    double normal = contact_force(rod, found->depth, found->n, found->relative, geom->friction, c, elongation, f, tangent);
     if (normal <= 0.0) return;
     vsc_place_add_at_sphere(rod, a, f, p->Q);
     if (p->world->geom_wrench) {
@@ -238,8 +231,7 @@ static void push(pass* p, const found_contact* found) {
     least = scale[b] < least ? scale[b] : least;
     c *= scale[b + 1] < least ? scale[b + 1] : least;
   }
-  double normal = contact_force(rod, found->depth, found->n, found->relative, mu, rod->def.contact_stiffness, c,
-                                elongation, f, tangent);
+  double normal = contact_force(rod, found->depth, found->n, found->relative, mu, c, elongation, f, tangent);
   if (normal <= 0.0) return;
   double share[3];
   for (int k = 0; k < 3; ++k) share[k] = (1.0 - s) * f[k];
@@ -299,59 +291,14 @@ static void find_contacts(pass* p) {
   }
 }
 
-// The explicit limits a body that takes a geom's reaction as a load over a step
-// h keeps to, with margin: omega h <= VSC_LOAD_OMEGA_STEP for the stiffness
-// its contacts add up to over its mass (K h^2 / m), gamma h <= VSC_LOAD_GAMMA_STEP
-// for their damping (C h / m); 2 is where such a body's step goes unstable.
-// Measured: a colon lying on the small bowel (assets/scenes/abdomen_anatomical.xml)
-// chattered at 12 Hz, never coming to rest, with omega h up to 2.7 unlimited.
-#define VSC_LOAD_OMEGA_STEP 1.0
-#define VSC_LOAD_GAMMA_STEP 1.0
-
-// Per geom that takes its reaction as a load (vsc_geom.load_mass > 0), the
-// factors (<= 1) on its contacts' stiffness and damping that hold their sums
-// within its limits: in p->load_scale. Geoms below their limits get 1: a tube
-// resting on another keeps the full stiffness. O(found + geoms).
-static void limit_loads(pass* p) {
-  vsc_rod* rod = p->rod;
-  const vsc_world* world = p->world;
-  const found_contact* found = (const found_contact*)rod->found;
-  int any = 0;
-  for (int k = 0; k < rod->found_count && !any; ++k) any = found[k].rigid && world->geoms[found[k].b].load_mass > 0.0;
-  if (!any) return;
-  if (rod->load_scale_capacity < world->geom_count) {
-    double* grown = (double*)realloc(rod->load_scale, sizeof(double) * 2 * (size_t)world->geom_count);
-    if (!grown) return;  // no room: unlimited, as before (the divergence guard still watches)
-    rod->load_scale = grown;
-    rod->load_scale_capacity = world->geom_count;
-  }
-  double* sum = rod->load_scale;
-  memset(sum, 0, sizeof(double) * 2 * (size_t)world->geom_count);
-  for (int k = 0; k < rod->found_count; ++k)
-    if (found[k].rigid && world->geoms[found[k].b].load_mass > 0.0) {
-      sum[2 * found[k].b] += rod->def.contact_stiffness;
-      sum[2 * found[k].b + 1] += rod->def.contact_damping;
-    }
-  for (int g = 0; g < world->geom_count; ++g) {
-    const vsc_geom* geom = &world->geoms[g];
-    double m = geom->load_mass, h = geom->load_step, stiffness = sum[2 * g], damping = sum[2 * g + 1];
-    double stiffness_limit = m > 0.0 && h > 0.0 ? VSC_LOAD_OMEGA_STEP * VSC_LOAD_OMEGA_STEP * m / (h * h) : INFINITY;
-    double damping_limit = m > 0.0 && h > 0.0 ? VSC_LOAD_GAMMA_STEP * m / h : INFINITY;
-    sum[2 * g] = stiffness > stiffness_limit ? stiffness_limit / stiffness : 1.0;
-    sum[2 * g + 1] = damping > damping_limit ? damping_limit / damping : 1.0;
-  }
-  p->load_scale = sum;
-}
-
 int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
   vsc_rod* rod = context->rod;
-  pass p = {context, rod, context->world, Q, 0, -1, NULL, NULL, NULL};
+  pass p = {context, rod, context->world, Q, 0, -1, NULL, NULL};
   vsc_touch_clear(rod);
   rod->found_count = 0;
   find_contacts(&p);
   // in a step, the damping limited where it adds up past its explicit limit (none in a lone evaluation)
   if (vsc_contact_load_limit_damping(rod, context->substep)) p.damping_scale = rod->damping_scale;
-  limit_loads(&p);
   const found_contact* found = (const found_contact*)rod->found;
   for (int k = 0; k < rod->found_count; ++k) push(&p, &found[k]);
   return p.contacts;

@@ -373,7 +373,6 @@ void vsc_rod_destroy(vsc_rod* rod) {
   if (!rod) return;
   free(rod->block);
   free(rod->found);
-  free(rod->load_scale);
   vsc_grid_destroy(rod->grid);
   vsc_contact_lists_destroy(rod->lists);
   free(rod);

@@ -74,9 +74,6 @@ struct vsc_rod {
                              ///< allocation, grown as needed)
   int found_count;           ///< contacts in `found`
   int found_capacity;        ///< contacts `found` holds
-  double* load_scale;        ///< per geom, the factors on its contacts' stiffness then damping where it
-                             ///< takes its reaction as a load (vsc_geom.load_mass; vsc_contact.c; own)
-  int load_scale_capacity;   ///< geoms `load_scale` holds
   double contact_load_unit;  ///< the largest row per unit stiffness at every sphere (1/kg)
   double contact_load_bound; ///< the last pass's largest bound on gamma h (vsc_contact_load.h)
   unsigned char* asleep;     ///< per control point this step: VSC_AWAKE, VSC_ASLEEP_EDGE or VSC_ASLEEP_DEEP (n; vsc_sleep.c)

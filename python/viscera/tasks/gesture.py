@@ -41,9 +41,10 @@ from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")
 LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
-# axis points a carry is planned on (3 cm apart on 3 m): a finer observation is resampled to
-# them, since a plan costs 34 ms on 100 points and 1.8 s on 1000
-PLAN_POINTS = 100
+TARGET_PATCH_HALF_M = 0.0005  # the target patch's half thickness: its centre is this above the wall
+# m between the axis points a carry is planned on (100 on 3 m): a finer observation is resampled
+# to them, since a plan costs 34 ms on 100 points and 1.8 s on 1000
+PLAN_SPACING_M = 0.03
 
 
 def _phase(name: str, duration: float, grasper: ToolTrajectory, retractor: ToolTrajectory) -> Phase:
@@ -90,6 +91,7 @@ class ClearingGesture:
         self.tools = Tools(env)  # trocars, working points, actuators
         self.coordinates = self.tools.coordinates
         self.radius = physics.intestine().radius
+        self.plan_points = int(round(physics.intestine().rest_length / PLAN_SPACING_M))
         self.target(np.concatenate([physics.target(), [0.0, 0.0, -9.81]]))
         self._reset()
 
@@ -97,6 +99,9 @@ class ClearingGesture:
         """The episode's target and gravity, from the observations `target` (centre m, half sizes
         m) and `gravity` (m/s^2), concatenated."""
         self.centre, self.half = observation[:2].copy(), observation[3:5].copy()
+        # m: the posterior wall's height under the target (its patch's centre lies its half
+        # thickness, TARGET_PATCH_HALF_M, above the wall; 0 in the box abdomen)
+        self.wall_z = float(observation[2]) - TARGET_PATCH_HALF_M
         u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
         x, y = np.meshgrid(self.centre[0] + u * self.half[0], self.centre[1] + u * self.half[1])
         self.cells = np.stack([x.ravel(), y.ravel()], axis=1)  # the reward's sampling points, coverage order
@@ -124,8 +129,8 @@ class ClearingGesture:
     def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
         """Queue the phases of the next cycle from the axis points (m, (k, 3)) and the target's
         coverage grid."""
-        if len(axis) > PLAN_POINTS:
-            axis = carry.resampled(axis, PLAN_POINTS)
+        if len(axis) > self.plan_points:
+            axis = carry.resampled(axis, self.plan_points)
         over = self._over_covered_cells(axis, coverage)
         uncovered = 1.0 - float(np.mean(np.asarray(coverage) > 0.5))
         if self.time + self.cycle_duration > self.withdraw_at or not over.any() or uncovered >= self.good_enough:
@@ -312,7 +317,7 @@ class RetractReachGesture(ClearingGesture):
         self.centre_radius = centre_radius  # m: the coverage cells that make the target's centre
         self.press_force = press_force  # N: the retractor presses when its sensor reads this
         self.push_force = push_force  # N: the grasper pushes its way through loops above this
-        self.reach_height = reach_height  # m: the tip's goal above the target's centre
+        self.reach_height = reach_height  # m: the tip's goal above the wall at the target's centre
         self.retract_gap = retract_gap  # m beyond the spot where the retractor holds the nearest loop
         kwargs = dict(dict(good_enough=1.0, resume_below=0.0, press=True, carry_height=0.07), **kwargs)
         super().__init__(env, **kwargs)
@@ -338,7 +343,7 @@ class RetractReachGesture(ClearingGesture):
             return
         nearness = distance
         if path:  # nearest the grasper's shaft, its lowest 6 cm at the centre
-            tip = np.append(self.centre, self.reach_height)
+            tip = np.append(self.centre, self.wall_z + self.reach_height)
             shaft = self.tools.trocar["grasper"] - tip
             shaft /= np.linalg.norm(shaft)
             along = np.clip((axis - tip) @ shaft, 0.0, 0.06)
@@ -359,7 +364,7 @@ class RetractReachGesture(ClearingGesture):
 
     def _plan_withdraw(self) -> None:
         g = "grasper"
-        centre = np.append(self.centre, self.reach_height)
+        centre = np.append(self.centre, self.wall_z + self.reach_height)
         forces = np.asarray(self.observation["tool_forces"])
         axis = np.asarray(self.observation["intestine_axis"]).reshape(-1, 3)
         if np.linalg.norm(forces[0:3]) > self.push_force:  # it pushed on a loop by its shaft: hold that one

@@ -53,20 +53,23 @@ STARTS = "abdomen_starts.npz"
 class Scene:
     """A cavity the tasks load: its MJCF and bank of settled starts (files of assets/scenes), where
     targets are drawn and where the clearing gesture lays loops ((x low, x high), (y low, y high),
-    m: on the floor inside the walls, and inside the colon where there is one)."""
+    m: on the floor inside the walls, and inside the colon where there is one), and the bowel's
+    axis points observed by default (3 cm apart)."""
 
     name: str
     file: str
     starts: str
     target_region: tuple[tuple[float, float], tuple[float, float]]
     lay_region: tuple[tuple[float, float], tuple[float, float]]
+    axis_samples: int
 
 
 SCENES = {
     "abdomen": Scene("abdomen", ABDOMEN, STARTS, target_region=((-0.08, 0.08), (-0.07, 0.07)),
-                     lay_region=((-0.12, 0.12), (-0.10, 0.10))),
+                     lay_region=((-0.12, 0.12), (-0.10, 0.10)), axis_samples=100),
     "anatomical": Scene("anatomical", "abdomen_anatomical.xml", "abdomen_anatomical_starts.npz",
-                        target_region=((-0.07, 0.07), (-0.06, 0.07)), lay_region=((-0.09, 0.09), (-0.08, 0.09))),
+                        target_region=((-0.07, 0.07), (-0.06, 0.07)), lay_region=((-0.09, 0.09), (-0.08, 0.09)),
+                        axis_samples=170),
 }
 DEFAULT_SCENE = "abdomen"
 

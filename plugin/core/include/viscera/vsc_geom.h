@@ -43,13 +43,6 @@ typedef struct vsc_geom {
   double box[6];               ///< world-frame bounding box, min then max (m); ignored when unbounded
   double friction;             ///< Coulomb coefficient of the intestine against this geom (>= 0)
   int is_static;               ///< 1: never moves (its velocities are ignored)
-  /// A body that takes this geom's reaction only as a load held over a step
-  /// (another intestine's capsule, partners.h): its mass (kg, the piece of tube
-  /// the capsule stands for) and that step (s). Its contacts' stiffness and
-  /// damping, summed, are held within the body's explicit limits over the step
-  /// (vsc_contact.c). 0: a body whose own integrator takes the reaction (MuJoCo's).
-  double load_mass;
-  double load_step;
   const vsc_convex* convex;    ///< VSC_GEOM_CONVEX only
   const vsc_heightfield* heightfield;  ///< VSC_GEOM_HEIGHTFIELD only
 } vsc_geom;
