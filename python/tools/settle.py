@@ -2,8 +2,11 @@
 
     python python/tools/settle.py --out settled.xml [--scene assets/scenes/abdomen.xml] [--duration 6]
     python python/tools/settle.py --out assets/scenes/abdomen.xml    # update the shipped scene
+    python python/tools/settle.py --scene assets/scenes/abdomen_anatomical.xml --out assets/scenes/abdomen_anatomical.xml
+    python python/tools/settle.py --scene assets/scenes/abdomen_anatomical.xml --bank 24 \
+        --out assets/scenes/abdomen_anatomical_starts.npz                # its bank of starts
 
-The scene's intestine is laid out as two serpentines side by side: the first
+A scene's bowel (its intestine, or the one its cavity names) is laid out as two serpentines side by side: the first
 half rises from the duodenojejunal flexure (its pinned first point, on the
 posterior wall at the left cranial corner) through two layers in the left half
 of the cavity, crosses over the midline above them, and the second half comes
@@ -42,7 +45,7 @@ from viscera import cli  # noqa: E402
 import posterior_wall  # noqa: E402
 
 SCENE = pathlib.Path("assets") / "scenes" / "abdomen.xml"  # run from the repository root
-DURATION = 6.0  # s: the shipped scene was settled with it (a rerun reproduces its points to the digit)
+DURATION = 6.0  # s: the shipped box abdomen was settled with it (a rerun reproduces its points to the digit)
 HALF_WIDTH = (0.15, 0.125)  # the cavity's inner half sizes along x and y (m)
 LAYER_PITCH_RADII = 4.0     # rows and layers 4 radii apart: one tube diameter of clearance
 REST_WINDOW_S, REST_SPEED = 0.1, 0.01  # s, m/s: at rest, every control point moved less than 1 mm in 0.1 s
@@ -90,19 +93,45 @@ class Cavity:
     floor: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     bowel: str | None = None
     others: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    duration: float = DURATION  # s: the default settling time, the shipped scene's
+
+
+COLON_RADIUS = 0.025  # m, the anatomical abdomen's colon
+
+
+def _resting_height(x: float, y: float, radius: float) -> float:
+    """The height (m) of a sphere's centre of `radius` (m) resting at (x, y) on the anatomical
+    abdomen's posterior wall (python/tools/posterior_wall.py), 1 mm clear of it (the
+    heightfield's facets lie within a millimetre of the wall's function there)."""
+    u = np.linspace(-radius, radius, 21)
+    dx, dy = np.meshgrid(u, u)
+    inside = dx ** 2 + dy ** 2 <= radius ** 2
+    tops = posterior_wall.wall_height(x + dx[inside], y + dy[inside]) + np.sqrt(radius ** 2 - dx[inside] ** 2 -
+                                                                                  dy[inside] ** 2)
+    return float(tops.max()) + 0.001
+
+
+def colon_path() -> np.ndarray:
+    """The colon's initial polyline (m, (k, 3)) in the anatomical abdomen, 0.957 m: the caecum's
+    pole at the right caudal corner and the ascending colon up the right flank, resting on the
+    posterior wall every 2 cm (retroperitoneal: the scene pins these points); the transverse
+    colon from the hepatic flexure across the cranial side, 9 cm up, to fall on what lies
+    there; the descending colon down the left flank, resting on the wall like the ascending;
+    the sigmoid's loop 5.5 to 6 cm up, and the rectum's end on the pelvic brim."""
+    ascending = [(0.14, y, _resting_height(0.14, y, COLON_RADIUS)) for y in np.linspace(-0.125, 0.115, 13)]
+    transverse = [(0.07, 0.145, 0.09), (-0.07, 0.145, 0.09)]
+    descending = [(-0.14, y, _resting_height(-0.14, y, COLON_RADIUS)) for y in np.linspace(0.12, -0.10, 12)]
+    sigmoid = [(-0.10, -0.14, 0.055), (-0.04, -0.125, 0.06), (0.0, -0.14, _resting_height(0.0, -0.14, COLON_RADIUS))]
+    return np.array(ascending + transverse + descending + sigmoid)
 
 
 # The anatomical abdomen (assets/scenes/abdomen_anatomical.xml): the small bowel in three layers
 # inside the colon's frame (x within 10 cm of the midline, y from 8.5 cm caudal, clear of the
 # sigmoid, to 10 cm cranial, clear of the transverse colon), on the curved posterior wall; the
-# colon from the caecum up the right flank, the transverse colon hanging cranially between the
-# flexures, down the left flank and the sigmoid's loop to the rectum.
+# colon from colon_path.
 ANATOMICAL = Cavity(
     half_width=(0.1125, 0.105), centre=(0.0, 0.0075), layers=3, pitch_radii=2.4, floor=posterior_wall.wall_height,
-    bowel="small_bowel",
-    others=(("colon", (0.14, -0.125, 0.0463, 0.14, 0.115, 0.0411, 0.07, 0.145, 0.09, -0.07, 0.145, 0.09,
-                       -0.14, 0.12, 0.0435, -0.14, -0.1, 0.0367, -0.1, -0.14, 0.053, -0.04, -0.125, 0.058,
-                       0.0, -0.14, 0.0525)),))
+    bowel="small_bowel", duration=8.0, others=(("colon", tuple(colon_path().ravel())),))
 CAVITIES = {"abdomen_anatomical": ANATOMICAL}  # by the scene's model name; any other: the box abdomen's
 
 
@@ -274,11 +303,14 @@ def build_parser() -> argparse.ArgumentParser:
                              "bank (.npz) with --bank")
     parser.add_argument("--scene", type=pathlib.Path, default=SCENE,
                         help=f"scene to settle (default: {SCENE}, from the repository root)")
-    parser.add_argument("--duration", type=cli.duration, default=DURATION,
-                        help=f"settling time (simulated s, default {DURATION:g}: the shipped scene's)")
+    parser.add_argument("--duration", type=cli.duration,
+                        help=f"settling time (simulated s, default the shipped scene's: {DURATION:g} for the box "
+                             f"abdomen, {ANATOMICAL.duration:g} for the anatomical one)")
     parser.add_argument("--bank", type=cli.positive_int, metavar="K",
-                        help="instead of a scene, settle layouts 1 to K and write their control points to --out "
-                             f"(.npz, key 'control_points' (K, n, 3) m): the tasks' bank of starts ({BANK})")
+                        help="instead of a scene, settle layouts 1, 2, ... until K have come to rest (those that "
+                             "do not are left out, and said so) and write their control points to --out (.npz, key "
+                             "'control_points' (K, n, 3) m, each other intestine's under '<name>_control_points', the "
+                             f"layouts under 'layouts'): the tasks' bank of starts ({BANK})")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
     return parser
@@ -290,6 +322,8 @@ def main(argv: list[str] | None = None) -> int:
         cli.load_model(args.scene)  # the scene as given loads, before a long settle
         text = args.scene.read_text()
         cavity = cavity_of(text)
+        if args.duration is None:
+            args.duration = cavity.duration
         try:
             _with_shapes(text, {cavity.bowel: ("line", None)} | {name: ("line", None) for name, _ in cavity.others})
         except ValueError as error:
@@ -300,13 +334,28 @@ def main(argv: list[str] | None = None) -> int:
             raise cli.UserError(f"--out {args.out}: a scene is written as .xml (a .npz needs --bank)")
         try:
             if args.bank:
-                layouts = [settle(args.scene, args.duration, True, layout)
-                           for layout in tqdm(range(1, args.bank + 1), desc="layouts", disable=args.quiet)]
+                layouts, kept, skipped = [], [], []
+                with tqdm(total=args.bank, desc="layouts", disable=args.quiet) as bar:
+                    for layout in range(1, 2 * args.bank + 1):  # those that come to rest, up to K
+                        try:
+                            layouts.append(settle(args.scene, args.duration, True, layout))
+                        except RuntimeError as error:
+                            skipped.append(f"{layout} ({error})")
+                            continue
+                        kept.append(layout)
+                        bar.update(1)
+                        if len(kept) == args.bank:
+                            break
+                if len(kept) < args.bank:
+                    raise cli.UserError(f"only {len(kept)} of the first {2 * args.bank} layouts came to rest in "
+                                        f"{args.duration:g} s; settle longer")
                 names = list(layouts[0])
                 starts = {name: np.round(np.stack([each[name] for each in layouts]), 6) for name in names}
-                arrays = {"control_points": starts[names[0]]} | {
+                arrays = {"control_points": starts[names[0]], "layouts": np.array(kept)} | {
                     f"{name}_control_points": starts[name] for name in names[1:]}
                 np.savez_compressed(args.out, **arrays)
+                for layout in skipped:
+                    print(f"left out layout {layout}")
                 print(f"wrote {len(layouts)} settled starts of {', '.join(str(len(starts[n][0])) for n in names)} "
                       f"control points into {args.out}")
                 return 0

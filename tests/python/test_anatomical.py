@@ -1,0 +1,150 @@
+"""The anatomical abdomen (assets/scenes/abdomen_anatomical.xml): its anatomy against the sources
+its comments cite, its settled start at rest, its bank, and the tasks on it."""
+
+import mujoco
+import numpy as np
+import pytest
+
+import settle
+import viscera
+import viscera.tasks
+from viscera.tasks import scene
+
+from test_package import ROOT
+
+ANATOMICAL = ROOT / "assets" / "scenes" / "abdomen_anatomical.xml"
+
+
+@pytest.fixture(scope="module")
+def abdomen():
+    model = mujoco.MjModel.from_xml_path(str(ANATOMICAL))
+    small_bowel, colon = viscera.intestines(model)
+    return model, small_bowel, colon
+
+
+def _distance_to_wall(centre):
+    """The distance (m) from `centre` (m) to the posterior wall's surface (the function its
+    heightfield samples, python/tools/posterior_wall.py), over a 1 mm grid around it."""
+    u = np.linspace(-0.04, 0.04, 81)
+    x, y = np.meshgrid(centre[0] + u, centre[1] + u)
+    surface = np.stack([x.ravel(), y.ravel(), settle.posterior_wall.wall_height(x.ravel(), y.ravel())], axis=1)
+    return float(np.min(np.linalg.norm(surface - centre, axis=1)))
+
+
+def test_the_small_bowel_and_colon_are_sized_as_their_sources_say(abdomen):
+    """Teitelbaum et al. 2013: 506 +- 105 cm in vivo; Cronin et al.: jejunal 24.5 mm and ileal
+    18.7 mm diameters; the colon's radius 2.5 to 3 cm; the bowel is the first instance."""
+    model, small_bowel, colon = abdomen
+    assert small_bowel.name.endswith("small_bowel") and colon.name.endswith("colon")
+    assert small_bowel.rest_length == pytest.approx(5.06, abs=1e-9)
+    assert 0.0187 / 2 <= small_bowel.radius <= 0.0245 / 2  # between the ileum's and the jejunum's
+    assert 0.025 <= colon.radius <= 0.03
+    assert model.geom("posterior_wall").type[0] == mujoco.mjtGeom.mjGEOM_HFIELD  # curved, not a box
+    for wall in ("left_flank", "right_flank", "diaphragm", "pelvic_brim"):
+        assert model.geom(wall).type[0] == mujoco.mjtGeom.mjGEOM_CAPSULE
+
+
+def test_the_mesentery_root_runs_from_upper_left_to_lower_right(abdomen):
+    _, small_bowel, _ = abdomen
+    start, end = np.array(small_bowel.config["mesentery_root"].split(), float).reshape(2, 3)
+    assert start[0] < 0 < end[0] and start[1] > 0 > end[1]  # x: the patient's left to right; y: caudal to cranial
+    data = mujoco.MjData(abdomen[0])
+    points = small_bowel.positions(data)
+    assert np.linalg.norm(points[0, :2] - start[:2]) < 0.01  # the duodenojejunal flexure ...
+    assert np.linalg.norm(points[-1, :2] - end[:2]) < 0.01   # ... and the ileocaecal junction
+
+
+def test_the_colon_frames_the_bowel_and_the_ileum_joins_the_caecum(abdomen):
+    """Ascending (right, x > 0) and descending (left) colon pinned along their length, each pinned
+    point resting on the posterior wall (retroperitoneal); the transverse and the sigmoid free; the
+    small bowel's last point touching the caecum."""
+    model, small_bowel, colon = abdomen
+    data = mujoco.MjData(model)
+    points = colon.positions(data)
+    pinned = sorted(int(i) % colon.control_count for i in colon.config["pinned"].split())
+    ascending = [i for i in pinned if points[i, 0] > 0.1]
+    descending = [i for i in pinned if points[i, 0] < -0.1]
+    assert len(ascending) >= 10 and len(descending) >= 10
+    assert np.ptp(points[ascending, 1]) > 0.2 and np.ptp(points[descending, 1]) > 0.15  # along the flanks
+    for i in ascending + descending:
+        gap = _distance_to_wall(points[i]) - colon.radius
+        assert -0.002 < gap < 0.004, (i, gap)  # on the wall, within the heightfield's facets
+    free = [i for i in range(colon.control_count) if i not in pinned]
+    assert len(free) >= 15  # the transverse colon and the sigmoid hang free
+    ileum_end = small_bowel.positions(data)[-1]
+    caecum = points[ascending]
+    assert np.min(np.linalg.norm(caecum - ileum_end, axis=1)) < small_bowel.radius + colon.radius + 0.03
+
+
+def test_the_shipped_abdomen_is_at_rest_without_recoveries(abdomen):
+    """Each episode starts from the settled state: 1 s with the tools still moves no control point
+    of either intestine by more than 2 mm, the pinned ones not at all, and nothing diverges."""
+    model = abdomen[0]
+    data = mujoco.MjData(model)
+    guts = viscera.intestines(model)
+    start = [gut.positions(data).copy() for gut in guts]
+    while data.time < 1.0:
+        mujoco.mj_step(model, data)
+    for gut, before in zip(guts, start):
+        moved = np.linalg.norm(gut.positions(data) - before, axis=1)
+        assert moved.max() < 0.002, gut.name
+        pinned = [int(i) for i in gut.config["pinned"].split()]
+        assert np.all(moved[pinned] == 0.0)
+        assert gut.recovery_count(data) == 0 and gut.divergence_count(data) == 0
+
+
+def test_the_bank_holds_both_intestines_settled_and_their_pins(abdomen):
+    model, small_bowel, colon = abdomen
+    data = mujoco.MjData(model)
+    bank = np.load(scene.scene_file(scene.SCENES["anatomical"].starts))
+    assert bank["control_points"].shape == (24, small_bowel.control_count, 3)
+    assert bank["colon_control_points"].shape == (24, colon.control_count, 3)
+    pins = [int(i) for i in colon.config["pinned"].split()]
+    assert np.allclose(bank["colon_control_points"][:, pins], colon.positions(data)[pins], atol=1e-6)
+    assert not np.allclose(bank["control_points"][0], bank["control_points"][1])  # layouts differ
+
+
+def test_the_settling_layout_lies_inside_the_colon_on_the_wall():
+    cavity = settle.ANATOMICAL
+    path = settle.initial_path(5.06, 0.0105, 0, cavity)
+    assert np.linalg.norm(np.diff(path, axis=0), axis=1).sum() == pytest.approx(5.06, abs=1e-8)
+    assert np.all(np.abs(path[:, 0]) <= 0.1 + 1e-9)  # inside the ascending and descending colon
+    floor = settle.posterior_wall.wall_height(path[:, 0], path[:, 1])
+    assert np.all(path[:, 2] >= floor + 0.0105)  # on or above the wall, clear of it
+
+
+def test_an_unknown_scene_names_the_choices():
+    with pytest.raises(ValueError, match=r"scene = 'belly'.*'abdomen', 'anatomical'"):
+        viscera.tasks.load("grasp_lift", seed=0, scene="belly")
+
+
+@pytest.mark.parametrize("task", viscera.tasks.ALL)
+def test_every_task_loads_on_the_anatomical_abdomen(task):
+    """The episode's bowel is the small bowel, observed at 3 cm (170 points on 5.06 m), the colon
+    drawn from the same start of the bank, the target patch lying on the curved wall."""
+    env = viscera.tasks.load(task, seed=3, scene="anatomical")
+    step = env.reset()
+    physics = env.physics
+    assert step.observation["intestine_axis"].shape == (3 * 170,)
+    colon = viscera.intestines(physics.model.ptr)[1]
+    episode = env.task.episode
+    settled_for = physics.data.time  # the clock restarts after the settle: the colon moved little in it
+    assert settled_for == 0.0
+    assert np.max(np.linalg.norm(colon.positions(physics.data.ptr) - episode.others["colon"], axis=1)) < 0.02
+    if env.task.HAS_TARGET:
+        centre = physics.target()[:3]
+        half_thickness = physics.named.model.site_size["target_area"][2]
+        assert centre[2] == pytest.approx(physics.wall_height(*centre[:2]) + half_thickness, abs=1e-9)
+    for _ in range(5):
+        step = env.step(np.zeros(env.action_spec().shape))
+    assert all(np.isfinite(v).all() for v in step.observation.values())
+
+
+def test_the_scripted_grasp_lifts_the_band_on_the_anatomical_abdomen():
+    env = viscera.tasks.load("grasp_lift", seed=1000, scene="anatomical")
+    policy = viscera.tasks.scripted_policy(env)
+    step = env.reset()
+    while not step.last():
+        step = env.step(policy(step))
+    assert env.task.success(env.physics)
+    assert env.task.held_band_height(env.physics) >= 0.05
