@@ -7,11 +7,13 @@ A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` i
 single figure in a sentence between `<!-- value: FILE KEY FORMAT -->` and `<!-- end value -->`
 (see VALUE below); NAME is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json), docs/bench/instances.json (python python/tools/bench_instances.py
+(python python/tools/bench_cavity.py --json; docs/bench/cavity_anatomical.json with --scene anatomical),
+docs/bench/instances.json (python python/tools/bench_instances.py
 --json docs/bench/instances.json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
-python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json likewise),
+python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json and
+docs/tasks/rates_anatomical.json likewise),
 docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/contacts.json
 (python python/tools/validation/contacts/study.py), docs/validation/tolerance.json
 (python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
@@ -175,6 +177,47 @@ def task_rates() -> str:
                   f"doing nothing (seeds {seeds['nothing'][0]} to {seeds['nothing'][1]})",
                   "scripted: median wall and simulated time per episode, env steps/s",
                   "episodes with a divergence recovery: scripted, random, nothing"], rows)
+
+
+def anatomical_rates() -> str:
+    """The scripted policies on the anatomical abdomen, from docs/tasks/rates_anatomical.json (python
+    python/tools/task_rates.py --scene anatomical --policies scripted --out docs/tasks/rates_anatomical.json)."""
+    data = _json("tasks/rates_anatomical.json")
+    rows = []
+    for task, table in data["rates"].items():
+        row = table["scripted"]
+        steps_per_s = row["median_simulated_s"] / data["control_timestep_s"] / row["median_wall_s_per_episode"]
+        rows.append([f"`{task}`", f"{row['success_rate']:.0%} of {row['episodes']}",
+                     f"{row['median_wall_s_per_episode']:.1f} s, {row['median_simulated_s']:.1f} s simulated, "
+                     f"{steps_per_s:.0f}", _recovered(row)])
+    seeds = data["seeds"]["scripted"]
+    return _rows(["task", f"scripted policy (seeds {seeds[0]} to {seeds[1]}, not tuned on)",
+                  "median wall and simulated time per episode, env steps/s", "episodes with a divergence recovery"],
+                 rows)
+
+
+ANATOMICAL_VARIANTS = {"full": "the anatomical abdomen: 5.06 m small bowel (300 points, 483 spheres) and colon",
+                       "sleep off": "the same with `sleep` 0",
+                       "spheres 1.5 r": "the small bowel's spheres 1.5 r apart (323, not 483)",
+                       "no self-collision": "no self-collision in the small bowel",
+                       "rigid only": "rigid only (MuJoCo without the intestines)"}
+
+
+def anatomical_speed() -> str:
+    """From docs/bench/cavity_anatomical.json (python python/tools/bench_cavity.py --scene anatomical
+    --json docs/bench/cavity_anatomical.json ...): wall s per simulated s and real-time factor."""
+    data = _json("bench/cavity_anatomical.json")
+    loads = data["loads"]
+    header = ["variant"] + [f"{load}: wall s / sim s (real time)" for load in loads] + ["sweep: p99 step (ms)"]
+    out = []
+    for v in next(iter(loads.values()))["variants"]:
+        row = [ANATOMICAL_VARIANTS.get(v, v)]
+        for entry in loads.values():
+            cost = entry["variants"][v]["wall_s_per_sim_s"]
+            row.append(f"{cost:.3f} ({1.0 / cost:.1f}x)")
+        row.append(f"{loads['sweep']['variants'][v]['p99_ms']:.3f}" if "sweep" in loads else "-")
+        out.append(row)
+    return _rows(header, out)
 
 
 def _recovered(row: dict) -> str:

@@ -456,6 +456,9 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
     return fail(r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
   if (d->mesentery_stiffness == 0.0) d->mesentery_points = 0;
   if (!given[VSC_KEY_friction]) c->friction = -1.0;  // each geom's own
+  for (int k = 0; k < 4; ++k)
+    if (!(c->rgba[k] >= 0.0 && c->rgba[k] <= 1.0))
+      return fail(r, "attribute 'rgba' = '%s' must be 4 numbers in [0, 1] (red, green, blue, opacity)", raw(r, "rgba"));
   if (given[VSC_KEY_marked_band] &&
       !(c->marked_band[0] >= 0.0 && c->marked_band[0] < c->marked_band[1] && c->marked_band[1] <= d->length))
     return fail(r, "attribute 'marked_band' = '%s' must be from, to with 0 <= from < to <= 'length' = %g (m)",

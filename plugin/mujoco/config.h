@@ -107,6 +107,7 @@ typedef struct vsc_plugin_config {
   double wall_thickness;      ///< m; 0: a solid section
   int clamped;                ///< clamped ends: bit 0 start, bit 1 end
   double marked_band[2];      ///< drawn in its own colour: from, to (m along the rest axis); given[VSC_KEY_marked_band]
+  double rgba[4];             ///< the colour it is drawn in: red, green, blue, opacity in [0, 1]
   int draw_capsules;          ///< capsules drawn along the axis; given[VSC_KEY_draw_capsules], else one per sample interval
   vsc_shape_kind shape;
   double start[3];            ///< line start (m)

@@ -158,6 +158,9 @@
   X(marked_band, VSC_KEY_KIND_VECTOR, FIELD(marked_band), 0, 2, "m", DERIVED("none"), \
     "a stretch of the axis drawn in its own colour (blue) by MuJoCo's renderer: from, to, along the rest " \
     "axis (0 <= from < to <= `length`); the band a task marks, e.g. to be grasped") \
+  X(rgba, VSC_KEY_KIND_VECTOR, FIELD(rgba), 0, 4, "-", VALUE("0.85 0.45 0.45 1"), \
+    "the colour MuJoCo's renderer and the meshcat viewer draw the intestine in: red, green, blue, " \
+    "opacity, each in [0, 1] (e.g. to tell a colon from the small bowel)") \
   X(draw_capsules, VSC_KEY_KIND_COUNT, FIELD(draw_capsules), 1, 100000, "count", \
     DERIVED("one per spring sample interval (`samples_per_segment` x (n - 1))"), \
     "capsules MuJoCo's renderer draws along the axis, evenly spaced in the rest abscissa: fewer draw " \

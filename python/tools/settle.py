@@ -101,14 +101,14 @@ COLON_RADIUS = 0.025  # m, the anatomical abdomen's colon
 
 def _resting_height(x: float, y: float, radius: float) -> float:
     """The height (m) of a sphere's centre of `radius` (m) resting at (x, y) on the anatomical
-    abdomen's posterior wall (python/tools/posterior_wall.py), 1 mm clear of it (the
-    heightfield's facets lie within a millimetre of the wall's function there)."""
+    abdomen's posterior wall (python/tools/posterior_wall.py), 2.5 mm clear of it (the
+    heightfield's facets lie up to 1.5 mm off the wall's function on the steep caecal slope)."""
     u = np.linspace(-radius, radius, 21)
     dx, dy = np.meshgrid(u, u)
     inside = dx ** 2 + dy ** 2 <= radius ** 2
     tops = posterior_wall.wall_height(x + dx[inside], y + dy[inside]) + np.sqrt(radius ** 2 - dx[inside] ** 2 -
                                                                                   dy[inside] ** 2)
-    return float(tops.max()) + 0.001
+    return float(tops.max()) + 0.0025
 
 
 def colon_path() -> np.ndarray:

@@ -44,10 +44,18 @@ INTESTINE_RGB = (0.85, 0.45, 0.45)
 MARKED_RGB = (0.25, 0.5, 0.9)  # the config key marked_band's stretch, as MuJoCo's renderer draws it
 
 
+def intestine_rgba(gut: viscera.Intestine) -> tuple[float, ...]:
+    """The colour `gut` is drawn in: its config's `rgba`, else INTESTINE_RGB, opaque (as MuJoCo's
+    renderer draws it)."""
+    given = gut.config.get("rgba")
+    return tuple(float(x) for x in given.split()) if given else (*INTESTINE_RGB, 1.0)
+
+
 def skin_colours(gut: viscera.Intestine, vertex_count: int) -> np.ndarray | None:
     """Per-vertex colours (V, 3) of `gut`'s skin at its config's resolution: MARKED_RGB on the rings
-    within its `marked_band`, INTESTINE_RGB elsewhere; None without a band. Rings are uniform in
-    the spline parameter ((n - 1) rings_per_segment + 1 of them), the two cap centres last."""
+    within its `marked_band`, its own colour (intestine_rgba) elsewhere; None without a band. Rings
+    are uniform in the spline parameter ((n - 1) rings_per_segment + 1 of them), the two cap
+    centres last."""
     band = gut.config.get("marked_band")
     if not band:
         return None
@@ -57,7 +65,7 @@ def skin_colours(gut: viscera.Intestine, vertex_count: int) -> np.ndarray | None
     start, end = (float(x) / gut.rest_length for x in band.split())
     fraction = np.arange(rings) / (rings - 1)
     marked = np.repeat((fraction >= start) & (fraction <= end), ring_points)
-    colours = np.tile(np.array(INTESTINE_RGB), (vertex_count, 1))
+    colours = np.tile(np.array(intestine_rgba(gut)[:3]), (vertex_count, 1))
     colours[:len(marked)][marked] = MARKED_RGB
     return colours
 
@@ -425,6 +433,7 @@ class MeshcatViewer:
     def _build(self, record_rings_per_segment: int, record_ring_points: int) -> None:
         model = self.model
         self.intestines = viscera.intestines(model)
+        self._rgba = {gut.name: intestine_rgba(gut) for gut in self.intestines}
         self.record_resolution = (record_rings_per_segment, record_ring_points)
         self.frames: list[tuple[dict, dict]] = []
         self.geoms = []
@@ -448,7 +457,7 @@ class MeshcatViewer:
         moving = (model.body_weldid[bodies] != 0) | (model.body_mocapid[model.body_rootid[bodies]] >= 0)
         self._moving = [part for part, moves in zip(self.parts, moving) if moves]
         self._placed = False
-        self._skin_material = _material((*INTESTINE_RGB, 1.0))
+        self._skin_materials = {gut.name: _material(intestine_rgba(gut)) for gut in self.intestines}
         for helper in ("/Axes", "/Grid"):  # drawn through the scene; planes are drawn as geoms
             self.vis[helper].set_property("visible", False)
 
@@ -484,7 +493,7 @@ class MeshcatViewer:
             colours = skin_colours(gut, len(vertices))
             if colours is None:
                 self.vis["intestines"][gut.name].set_object(g.TriangularMeshGeometry(vertices, triangles),
-                                                           self._skin_material)
+                                                           self._skin_materials[gut.name])
             else:  # a marked band: vertex colours
                 self.vis["intestines"][gut.name].set_object(
                     g.TriangularMeshGeometry(vertices, triangles, color=colours),
@@ -533,7 +542,7 @@ class MeshcatViewer:
             for name, (vertices, triangles) in skins.items():
                 node = vis["recording"][name][str(k)]
                 # a material object per frame: meshcat's page loads objects sharing one badly
-                node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material((*INTESTINE_RGB, 1.0)))
+                node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material(self._rgba[name]))
                 node.set_transform(home if k == 0 else away)
                 for time_in_frames, transform in keys:
                     with animation.at_frame(vis, time_in_frames) as frame:
