@@ -42,7 +42,7 @@ def load(name: str, seed: int | None = None, pixels: bool = False, width: int = 
     With pixels=True the observations gain `pixels` ((height, width, 3) uint8 RGB), `depth`
     ((height, width) float32, m along the camera's axis) and `segmentation` ((height, width)
     uint8: 0 nothing, 1 intestine, 2 tool, 3 target) from `camera` (viscera.pixels.Camera; the
-    intestine is then drawn as 160 capsules: viscera.tasks.base.PIXEL_CAPSULES)."""
+    intestine is then drawn as 160 capsules per 3 m: viscera.tasks.base.PIXEL_CAPSULES)."""
     if name not in base.SUITE:
         raise KeyError(f"unknown task {name!r}; known: {ALL}")
     pixels = checked_bool("pixels", pixels)

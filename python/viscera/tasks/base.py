@@ -62,6 +62,7 @@ CLEAR_MARGIN = 0.01     # m: a tool is clear of the target outside it grown by t
 CLEAR_HEIGHT = 0.05     # m above the posterior wall
 STILL_RAD_S = 0.3       # rad/s: a tool's hinge at rest below this ...
 STILL_M_S = 0.03        # m/s: ... and its slide below this
+PIXEL_CAPSULES_LENGTH_M = 3.0  # m: PIXEL_CAPSULES are for this length, the box abdomen's bowel
 PIXEL_CAPSULES = 160    # capsules drawing the intestine when pixels are observed (1.9 cm each on 3 m):
                         # the frame's cost is geometry; 120 showed angular bends, 512 cost 3x
 
@@ -359,7 +360,9 @@ class BowelTask(base.Task):
     def scene_xml(self, episode: scene.Episode | None, target=None) -> str:
         config = self.intestine_config()
         if self.camera is not None:
-            config = dict(config, draw_capsules=str(PIXEL_CAPSULES))
+            # the same 1.9 cm capsules at any length: 160 on the abdomen's 3 m, 270 on 5.06 m
+            length = scene.bowel_length(self.scene.name)
+            config = dict(config, draw_capsules=str(int(round(PIXEL_CAPSULES * length / PIXEL_CAPSULES_LENGTH_M))))
         return scene.compose(self.TOOLS, episode, target, config, self.TARGET_HALF_M, show_target=self.HAS_TARGET,
                              scene=self.scene.name)
 
@@ -369,7 +372,8 @@ class BowelTask(base.Task):
 
     def observe_pixels(self, physics: Physics, camera) -> None:
         """Add `camera`'s frames (viscera.pixels.Camera) to the observations, the intestine drawn
-        as PIXEL_CAPSULES capsules; the physics is rebuilt for it (as every reset does)."""
+        as PIXEL_CAPSULES capsules per PIXEL_CAPSULES_LENGTH_M of it; the physics is rebuilt for it
+        (as every reset does)."""
         if camera.camera not in physics.named.model.cam_fovy.axes.row.names:
             raise ValueError(f"camera = {camera.camera!r}: the task's scene has no such camera; it has "
                              f"{list(physics.named.model.cam_fovy.axes.row.names)}")
