@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import pathlib
 import xml.etree.ElementTree as ElementTree
 
@@ -144,8 +145,9 @@ def settled_starts(scene: str = DEFAULT_SCENE) -> np.ndarray:
     return _bank(scene_named(scene).starts)["control_points"]
 
 
+@functools.cache
 def bowel_length(scene: str = DEFAULT_SCENE) -> float:
-    """The rest length (m) of the scene's bowel (its first intestine instance)."""
+    """The rest length (m) of the scene's bowel (its first intestine instance), read once per process."""
     root = ElementTree.fromstring(scene_file(scene_named(scene).file).read_text())
     return float(next(c.get("value") for c in root.find("extension/plugin/instance").findall("config")
                       if c.get("key") == "length"))
