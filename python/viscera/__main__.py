@@ -4,6 +4,7 @@
     python -m viscera view SCENE.xml    # MuJoCo's interactive viewer, the intestine drawn
     python -m viscera teleop TASK [--seed S] [--device keyboard] [--record FILE]   # a person at the tools
     python -m viscera play TASK [--seed S] [--policy scripted]     # a whole episode: did it succeed? (exit 0 or 1)
+    python -m viscera play TASK --scene anatomical                 # ... in the anatomical abdomen (teleop, record too)
     python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without a person
     python -m viscera replay FILE [--json OUT] [--viewer meshcat] [--trajectory OUT.json]
 """
@@ -228,14 +229,16 @@ def ticks(count: int) -> str:
 
 
 def play(task: str, seed: int, policy: str, time_limit_s: float | None, quiet: bool,
-         out: str | None = None) -> tuple[bool, dict]:
+         out: str | None = None, scene: str = "abdomen") -> tuple[bool, dict]:
     """One whole episode of `task` (to its success, failure or time limit) played by a policy kind
     (recording.POLICIES), with `out` saved for replay; prints its score and the verdict last.
     Returns the success and the score."""
     from viscera import recording
     on_step, score = _trace_and_score(task)
-    made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step)
-    episode = f"{task}, seed {seed}, {policy} policy, {ticks(made.steps)} of {made.control_timestep_s * 1e3:g} ms"
+    made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step,
+                            scene=scene)
+    where = "" if scene == "abdomen" else f", {scene} scene"
+    episode = f"{task}{where}, seed {seed}, {policy} policy, {ticks(made.steps)} of {made.control_timestep_s * 1e3:g} ms"
     if out:
         made.save(out)
         print(f"recording        {out} ({episode})")
@@ -249,9 +252,10 @@ def play(task: str, seed: int, policy: str, time_limit_s: float | None, quiet: b
     return made.success, result
 
 
-def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool) -> dict:
+def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | None, quiet: bool,
+           scene: str = "abdomen") -> dict:
     """play, the episode saved to `out`; returns the score."""
-    return play(task, seed, policy, time_limit_s, quiet, out)[1]
+    return play(task, seed, policy, time_limit_s, quiet, out, scene)[1]
 
 
 def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str | None, quiet: bool) -> dict:
@@ -279,7 +283,8 @@ def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str 
                         f"recorded {made.final_state_sha256[:16]}...); it was recorded with "
                         f"viscera {made.versions.get('viscera', '?')}, mujoco {made.versions.get('mujoco', '?')}")
     values = score()
-    print(f"replayed         {path} ({made.task}, seed {made.seed}, {made.policy} policy, {ticks(result.steps)}): "
+    where = "" if made.scene == "abdomen" else f", {made.scene} scene"
+    print(f"replayed         {path} ({made.task}{where}, seed {made.seed}, {made.policy} policy, {ticks(result.steps)}): "
           "bit-identical")
     print_score(values)
     print(f"final state      sha256 {result.final_state_sha256}")
@@ -329,6 +334,9 @@ def _shown(on_step, control_timestep_s: float):
     return step
 
 
+SCENES = ("abdomen", "anatomical")  # viscera.tasks.scene.SCENES' names, without loading dm_control (tested)
+
+
 def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None:
     """A task's episode: its name, seed and time limit (teleop, play, record)."""
     from viscera.task_registry import TASKS  # the names, without loading dm_control
@@ -338,6 +346,9 @@ def task_arguments(parser: argparse.ArgumentParser, seed_required: bool) -> None
     else:
         parser.add_argument("--seed", type=cli.seed, default=0, help="the episode's seed (0 to 2^32 - 1, default 0)")
     parser.add_argument("--time-limit", type=cli.duration, help="the episode's length in simulated s (default: the task's)")
+    parser.add_argument("--scene", choices=SCENES, default="abdomen",
+                        help="the cavity: abdomen (the box, 3 m of bowel; default) or anatomical (curved walls, "
+                             "5.06 m of small bowel framed by the colon)")
 
 
 def policy_arguments(parser: argparse.ArgumentParser, required: bool) -> None:
@@ -441,12 +452,12 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"--port is the socket device's; it needs --device socket, not {args.device}",
                                 status=2)
             from viscera.teleop.app import teleop
-            teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit)
+            teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit, args.scene)
         elif args.command == "play":
-            success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet)
+            success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet, scene=args.scene)
             return 0 if success else 1
         elif args.command == "record":
-            record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet)
+            record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet, args.scene)
         elif args.command == "replay":
             replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet)
         else:

@@ -8,7 +8,8 @@ bit for bit.
 
 A recording is one `.npz` file (NumPy's zip; written to a temporary name, then renamed, so an
 interrupted write never leaves a half file under the name) with two arrays:
-- `meta`: UTF-8 JSON: `format` ("viscera-recording"), `version` (1), `task`, `seed`, `policy`
+- `meta`: UTF-8 JSON: `format` ("viscera-recording"), `version` (1), `task`, `scene` (the
+  cavity, viscera.tasks.scene.SCENES; a file without it is the box abdomen's), `seed`, `policy`
   ("scripted", "random", "idle" or "person:<device>"), `policy_seed` (random only),
   `control_timestep_s`, `time_limit_s`, `steps`, `success`, `final_state_sha256`, the
   `viscera` and `mujoco` versions, `created` (UTC);
@@ -61,13 +62,15 @@ class Recording:
     policy_seed: int | None = None
     created: str = ""
     versions: dict = dataclasses.field(default_factory=dict)
+    scene: str = "abdomen"               # the cavity (viscera.tasks.scene.SCENES)
 
     @property
     def steps(self) -> int:
         return int(len(self.actions))
 
     def meta(self) -> dict:
-        return {"format": FORMAT, "version": VERSION, "task": self.task, "seed": self.seed, "policy": self.policy,
+        return {"format": FORMAT, "version": VERSION, "task": self.task, "scene": self.scene, "seed": self.seed,
+                "policy": self.policy,
                 "policy_seed": self.policy_seed, "control_timestep_s": self.control_timestep_s,
                 "time_limit_s": self.time_limit_s, "steps": self.steps, "success": bool(self.success),
                 "final_state_sha256": self.final_state_sha256, "created": self.created, **self.versions}
@@ -147,6 +150,9 @@ def load(path: str | os.PathLike) -> Recording:
     task = meta["task"]
     if task not in viscera.tasks.ALL:
         raise RecordingError(f"{name}: unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
+    scene = meta.get("scene", "abdomen")
+    if scene not in viscera.tasks.scene.SCENES:
+        raise RecordingError(f"{name}: unknown scene {scene!r}; known: {', '.join(viscera.tasks.scene.SCENES)}")
     seed = meta["seed"]
     if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2 ** 32):
         raise RecordingError(f"{name}: seed {seed!r} is not an integer from 0 to 2^32 - 1")
@@ -163,7 +169,7 @@ def load(path: str | os.PathLike) -> Recording:
         raise RecordingError(f"{name}: final_state_sha256 {digest!r} is not a SHA-256 (64 hex digits)")
     if actions.dtype != np.float64 or actions.ndim != 2:
         raise RecordingError(f"{name}: actions must be a 2-D float64 array, got {actions.dtype} {actions.shape}")
-    width = action_width(task)
+    width = action_width(task, scene)
     if actions.shape[1] != width:
         raise RecordingError(f"{name}: actions of {actions.shape[1]} values per tick, the task {task!r} takes {width}")
     if not np.all(np.isfinite(actions)):
@@ -174,7 +180,7 @@ def load(path: str | os.PathLike) -> Recording:
     versions = {k: meta[k] for k in ("viscera", "mujoco") if k in meta}
     return Recording(task, seed, str(meta["policy"]), float(meta["control_timestep_s"]), float(meta["time_limit_s"]),
                      actions, meta["success"], digest,
-                     meta.get("policy_seed"), str(meta.get("created", "")), versions)
+                     meta.get("policy_seed"), str(meta.get("created", "")), versions, scene)
 
 
 def _one_line(error: BaseException) -> str:
@@ -188,15 +194,15 @@ def final_state_sha256(physics) -> str:
 
 
 @functools.cache
-def action_width(task: str) -> int:
+def action_width(task: str, scene: str = "abdomen") -> int:
     """The length of `task`'s action (its tools' actuators); its scene is built once per process."""
-    return int(load_task(task, 0).action_spec().shape[0])
+    return int(load_task(task, 0, scene=scene).action_spec().shape[0])
 
 
 def load_task(task: str, seed: int | None, control_timestep_s: float | None = None,
-              time_limit_s: float | None = None):
+              time_limit_s: float | None = None, scene: str = "abdomen"):
     import viscera.tasks
-    kwargs = {}
+    kwargs = {"scene": scene}
     if control_timestep_s is not None:
         kwargs["control_timestep"] = control_timestep_s
     if time_limit_s is not None:
@@ -208,9 +214,10 @@ class Recorder:
     """Collects a live session's actions (viscera.teleop.session) into a Recording."""
 
     def __init__(self, task: str, seed: int | None, policy: str, control_timestep_s: float, time_limit_s: float,
-                 policy_seed: int | None = None):
+                 policy_seed: int | None = None, scene: str = "abdomen"):
         self.recording = Recording(task, seed, policy, float(control_timestep_s), float(time_limit_s),
-                                   np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=versions())
+                                   np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=versions(),
+                                   scene=scene)
         self._actions: list[np.ndarray] = []
 
     def append(self, action) -> None:
@@ -244,18 +251,18 @@ def policy_for(env, policy: str, seed: int | None) -> Callable:
 
 def record(task: str, seed: int | None, policy: str = "scripted", time_limit_s: float | None = None,
            control_timestep_s: float | None = None, policy_seed: int | None = None, progress: bool = False,
-           on_step: Callable | None = None) -> Recording:
-    """Run one episode of `task` (seed `seed`) with a policy kind (POLICIES) and record it.
-    `on_step(env, time_step)` is called after the reset and after every step."""
+           on_step: Callable | None = None, scene: str = "abdomen") -> Recording:
+    """Run one episode of `task` (seed `seed`, on `scene`) with a policy kind (POLICIES) and record
+    it. `on_step(env, time_step)` is called after the reset and after every step."""
     if policy not in POLICIES:
         raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
-    env = load_task(task, seed, control_timestep_s, time_limit_s)
+    env = load_task(task, seed, control_timestep_s, time_limit_s, scene)
     time_step = env.reset()
     if policy == "random" and policy_seed is None:
         policy_seed = seed
     act = policy_for(env, policy, policy_seed)
     recorder = Recorder(task, seed, policy, env.control_timestep(),
-                        time_limit_s if time_limit_s is not None else env.task.TIME_LIMIT_S, policy_seed)
+                        time_limit_s if time_limit_s is not None else env.task.TIME_LIMIT_S, policy_seed, scene)
     _step_through(env, time_step, lambda step: np.asarray(act(step), dtype=np.float64), on_step,
                   _bar(progress, recorder.recording, task), recorder.append)
     return recorder.finish(env)
@@ -308,7 +315,8 @@ class ReplayResult:
 def replay(recording: Recording, on_step: Callable | None = None, progress: bool = False) -> ReplayResult:
     """Step the recording's actions through its task again; `on_step(env, time_step)` after the
     reset and every step. Stops early if the episode ends before the actions do."""
-    env = load_task(recording.task, recording.seed, recording.control_timestep_s, recording.time_limit_s)
+    env = load_task(recording.task, recording.seed, recording.control_timestep_s, recording.time_limit_s,
+                    recording.scene)
     time_step = env.reset()
     expected = env.action_spec().shape
     if recording.actions.shape[1:] != expected:

@@ -148,3 +148,30 @@ def test_the_scripted_grasp_lifts_the_band_on_the_anatomical_abdomen():
         step = env.step(policy(step))
     assert env.task.success(env.physics)
     assert env.task.held_band_height(env.physics) >= 0.05
+
+
+def test_the_command_line_plays_records_and_replays_on_the_anatomical_abdomen(tmp_path):
+    """--scene reaches the episode and the recording: a recorded grasp on the anatomical abdomen
+    replays to the same final state, the scene read back from the file; an unknown scene is one
+    line on stderr before anything runs."""
+    import subprocess
+    import sys
+    from viscera import recording
+    out = tmp_path / "grasp.npz"
+    done = subprocess.run([sys.executable, "-m", "viscera", "record", "grasp_lift", "--scene", "anatomical",
+                           "--seed", "1000", "--policy", "scripted", "--out", str(out), "--quiet"],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "grasp_lift, anatomical scene, seed 1000" in done.stdout
+    made = recording.load(out)
+    assert made.scene == "anatomical" and made.success
+    assert recording.replay(made).matches(made)
+    refused = subprocess.run([sys.executable, "-m", "viscera", "play", "grasp_lift", "--scene", "belly"],
+                             capture_output=True, text=True, timeout=120)
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1
+    assert "--scene" in refused.stderr and "'belly'" in refused.stderr
+
+
+def test_the_command_line_knows_every_scene():
+    from viscera.__main__ import SCENES
+    assert SCENES == tuple(scene.SCENES)

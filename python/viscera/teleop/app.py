@@ -107,7 +107,7 @@ class Display(threading.Thread):
 
 
 def teleop(task: str, seed: int | None = None, device: str = "keyboard", record: str | None = None,
-           port: int | None = None, time_limit_s: float | None = None) -> dict:
+           port: int | None = None, time_limit_s: float | None = None, scene: str = "abdomen") -> dict:
     """Run one rehearsal episode in MuJoCo's viewer; print the score and the verdict; return the score."""
     import viscera.tasks
     if task not in viscera.tasks.ALL:
@@ -121,7 +121,7 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
         raise UserError(str(error), status=2) from None
     session = None
     try:
-        session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s)
+        session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s, scene=scene)
         prepare_view(session.model)
         import mujoco.viewer
         key_callback = hardware.key if isinstance(hardware, devices.KeyboardDevice) else None

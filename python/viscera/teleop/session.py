@@ -54,11 +54,12 @@ class Session:
 
     def __init__(self, task: str, seed: int | None = None, device: Device | None = None,
                  control_timestep_s: float = CONTROL_TIMESTEP_S, time_limit_s: float | None = None,
-                 record: bool = True):
+                 record: bool = True, scene: str = "abdomen"):
         if task not in viscera.tasks.ALL:
             raise KeyError(f"unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
         self.task_name, self.seed = task, seed
-        self.env = viscera.tasks.load(task, seed=seed, control_timestep=control_timestep_s, time_limit=time_limit_s)
+        self.env = viscera.tasks.load(task, seed=seed, control_timestep=control_timestep_s, time_limit=time_limit_s,
+                                      scene=scene)
         self.time_step = self.env.reset()
         self.physics = self.env.physics
         self.model, self.data = self.physics.model.ptr, self.physics.data.ptr
@@ -77,7 +78,7 @@ class Session:
         if record:
             from viscera.recording import Recorder
             self.recorder = Recorder(task, seed, f"person:{device.name if device else 'none'}",
-                                     self.control_timestep_s, self.time_limit_s)
+                                     self.control_timestep_s, self.time_limit_s, scene=scene)
         if device is not None:
             device.start(self.tools)
             device.feedback(self.snapshot())
