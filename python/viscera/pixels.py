@@ -268,6 +268,21 @@ class Camera:
             scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 0
             scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 0
 
+    def _draw_rgb(self) -> None:
+        """On the GL thread: the RGB draw alone, read back."""
+        mujoco.mjr_render(self._viewport, self._scene, self._gl.context)
+        mujoco.mjr_readPixels(self._rgb, None, self._viewport, self._gl.context)
+
+    def render_rgb(self, physics) -> np.ndarray:
+        """The RGB of one frame of `physics` (as `render`), without the depth and segmentation:
+        one draw instead of two (a video's frames; gymnasium's render())."""
+        model, data = physics if isinstance(physics, tuple) else (physics.model.ptr, physics.data.ptr)
+        with self._lock:
+            self._prepare(model)
+            self._update(model, data)
+            self._gl.call(self._draw_rgb)
+            return np.flipud(self._rgb).copy()
+
     def render(self, physics) -> dict[str, np.ndarray]:
         """One frame of `physics` (dm_control Physics, or anything with `.model.ptr` and
         `.data.ptr`, or a (mujoco.MjModel, mujoco.MjData) pair): fresh arrays."""

@@ -47,7 +47,7 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
     reference = viscera.tasks.load("clear_area", seed=3)
     observation, info = env.reset(seed=3)
     time_step = reference.reset()
-    assert info == {"step_type": 0}  # dm_env's FIRST discount is None: left out, so infos batch as floats
+    assert info == {"step_type": 0, "is_success": False}  # dm_env's FIRST discount is None: left out
     rng = np.random.default_rng(0)
     for _ in range(4):
         parts = env.unflatten(observation)
@@ -57,9 +57,48 @@ def test_observations_and_rewards_are_the_dm_env_ones_bit_for_bit():
         observation, reward, terminated, truncated, info = env.step(action)
         time_step = reference.step(env.dm_action(action))
         assert reward == time_step.reward and not (terminated or truncated)
-        assert info == {"step_type": 1, "discount": 1.0, "cost": info["tissue_cost"], "tissue_cost": info["tissue_cost"]}
+        assert info == {"step_type": 1, "discount": 1.0, "is_success": False, "cost": info["tissue_cost"],
+                        "tissue_cost": info["tissue_cost"]}
     nested = gymnasium_env.TaskEnv("clear_area", seed=3, flatten=False)
     assert list(nested.observation_space.spaces) == list(reference.observation_spec())
+
+
+def test_is_success_reports_the_tasks_lasting_success():
+    """info["is_success"] (what stable-baselines3 reads at an episode's end) is the task's own
+    success: False until the scripted grasp has held the band up for its second, True on the
+    step that terminates the episode."""
+    import dm_env
+    env = gymnasium_env.TaskEnv("grasp_lift", seed=1000)
+    policy = viscera.tasks.scripted_policy(env.dm_env)
+    observation, info = env.reset(seed=1000)
+    reward, seen, terminated, truncated = None, [], False, False
+    while not (terminated or truncated):
+        seen.append(info["is_success"])
+        step = dm_env.TimeStep(dm_env.StepType(info["step_type"]), reward, info.get("discount"),
+                               env.unflatten(observation))  # the time step the script reads
+        observation, reward, terminated, truncated, info = env.step(env.gym_action(policy(step)))
+    assert terminated and info["is_success"] and not any(seen)
+    assert env.dm_env.task.success(env.dm_env.physics)
+
+
+def test_render_draws_through_the_pixel_camera_at_the_size_asked():
+    """render() is the pixel camera's RGB (viscera.pixels.Camera, one draw) from render_camera at
+    render_size: the same pixels as the camera's own frame, the bowel in view; a bad size is refused
+    by name."""
+    from viscera.pixels import Camera
+    env = gymnasium_env.TaskEnv("clear_area", seed=0, render_mode="rgb_array", render_size=(120, 160))
+    env.reset(seed=0)
+    env.step(env.action_space.low)
+    frame = env.render()
+    assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8
+    reference = Camera(160, 120, "top").render(env.dm_env.physics)
+    assert np.array_equal(frame, reference["pixels"])
+    red, green = frame[..., 0].astype(int), frame[..., 1].astype(int)
+    assert ((red > 200) & (red > green + 20)).mean() > 0.15  # the bowel's pink: a fifth of the frame
+    assert gymnasium_env.TaskEnv("clear_area", seed=0).render() is None  # no render_mode: nothing drawn
+    env.close()
+    with pytest.raises(ValueError, match=r"render_size = \(0, 10\): must be \(height, width\)"):
+        gymnasium_env.TaskEnv("clear_area", seed=0, render_mode="rgb_array", render_size=(0, 10))
 
 
 def test_time_limit_truncates_and_the_task_terminates(monkeypatch):

@@ -13,8 +13,12 @@ which CleanRL-style loops cannot batch into one tensor. Here:
 - reset(seed=s) re-seeds the task's RandomState (what viscera.tasks.load(seed=s)
   does: the episode it draws, bowel, tissue, tilt and target, is then load(seed=s)'s
   first), then returns the FIRST time step's observation; its info carries
-  step_type only (dm_env's FIRST discount is None, which gymnasium could not batch
+  step_type and is_success (dm_env's FIRST discount is None, which gymnasium could not batch
   beside floats). reset() without a seed draws the next episode.
+- every info carries `is_success`, the task's lasting success (viscera.tasks: True once its
+  condition has held long enough), the key stable-baselines3 and others read.
+- render() with render_mode="rgb_array" draws through viscera's pixel camera (one RGB draw)
+  from `render_camera` ("top" by default, or "laparoscope") at `render_size` (height, width).
 - step's info carries step_type and discount, and the step's tissue-safety cost as `cost`
   (the key safe-RL libraries read) and `tissue_cost` (viscera.assess.step_cost: one per tool
   over the traction limit, per jaw over the slip-preventing pinch and over perforation).
@@ -79,9 +83,14 @@ class TaskEnv(gymnasium.Env):
 
     def __init__(self, task: str = "clear_area", seed: int | None = None, flatten: bool | None = None,
                  render_mode: str | None = None, render_size: tuple[int, int] = (240, 320),
-                 normalize_actions: bool = True, pixels_only: bool = False, **task_kwargs):
+                 normalize_actions: bool = True, pixels_only: bool = False, render_camera: str = "top",
+                 **task_kwargs):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
+        if (not isinstance(render_size, (tuple, list)) or len(render_size) != 2 or
+                any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 4096
+                    for v in render_size)):
+            raise ValueError(f"render_size = {render_size!r}: must be (height, width), integers from 1 to 4096 (pixels)")
         pixels_only = checked_bool("pixels_only", pixels_only)
         pixels = bool(task_kwargs.get("pixels", False))  # a value not True or False: refused by tasks.load
         if pixels_only and not pixels:
@@ -96,7 +105,12 @@ class TaskEnv(gymnasium.Env):
         self.flatten = flatten
         self.pixels_only = pixels_only
         self.render_mode = render_mode
-        self.render_size = render_size  # (height, width) in pixels
+        self.render_size = tuple(int(v) for v in render_size)  # (height, width) in pixels
+        # render() draws through viscera's own camera (one RGB draw, the scene's quality settings
+        # for observations) from `render_camera`: 'top', the whole cavity; 'laparoscope', the
+        # surgeon's view. Made at the first render.
+        self.render_camera = render_camera
+        self._render_camera = None
         self.metadata = dict(self.metadata, render_fps=1.0 / self.dm_env.control_timestep())
         observation_spec = self.dm_env.observation_spec()
         if pixels_only:
@@ -130,11 +144,13 @@ class TaskEnv(gymnasium.Env):
         """The per-key arrays of a flat observation (views; also works on a batch, last axis flat)."""
         return observations.unflatten(observation, self.observation_layout)
 
-    @staticmethod
-    def _info(time_step) -> dict:
+    def _info(self, time_step) -> dict:
+        """step_type; discount past the first step; is_success, the task's lasting success (the
+        key stable-baselines3 and others read at an episode's end)."""
+        success = bool(self.dm_env.task.success(self.dm_env.physics))
         if time_step.first():
-            return {"step_type": int(time_step.step_type)}
-        return {"step_type": int(time_step.step_type), "discount": float(time_step.discount)}
+            return {"step_type": int(time_step.step_type), "is_success": success}
+        return {"step_type": int(time_step.step_type), "discount": float(time_step.discount), "is_success": success}
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -175,12 +191,19 @@ class TaskEnv(gymnasium.Env):
         return 2.0 * (np.asarray(dm_action, dtype=np.float64) - low) / (high - low) - 1.0
 
     def close(self) -> None:
-        """Free the pixel camera's rendering contexts (see viscera.tasks.close)."""
+        """Free the pixel cameras' rendering contexts (see viscera.tasks.close)."""
         viscera.tasks.close(self.dm_env)
+        if self._render_camera is not None:
+            self._render_camera.close()
         super().close()
 
     def render(self):
-        if self.render_mode == "rgb_array":
+        """The current frame (height, width, 3) uint8 RGB from `render_camera` at `render_size`, with
+        render_mode 'rgb_array'; None otherwise."""
+        if self.render_mode != "rgb_array":
+            return None
+        if self._render_camera is None:
+            from viscera.pixels import Camera
             height, width = self.render_size
-            return self.dm_env.physics.render(height=height, width=width)
-        return None
+            self._render_camera = Camera(width, height, self.render_camera)
+        return self._render_camera.render_rgb(self.dm_env.physics)
