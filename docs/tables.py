@@ -191,7 +191,7 @@ def anatomical_rates() -> str:
                      f"{row['median_wall_s_per_episode']:.1f} s, {row['median_simulated_s']:.1f} s simulated, "
                      f"{steps_per_s:.0f}", _recovered(row)])
     seeds = data["seeds"]["scripted"]
-    return _rows(["task", f"scripted policy (seeds {seeds[0]} to {seeds[1]}, not tuned on)",
+    return _rows(["task", f"scripted policy (seeds {seeds[0]} to {seeds[1]})",
                   "median wall and simulated time per episode, env steps/s", "episodes with a divergence recovery"],
                  rows)
 
