@@ -126,15 +126,18 @@ def test_every_task_loads_on_the_anatomical_abdomen(task):
     step = env.reset()
     physics = env.physics
     assert step.observation["intestine_axis"].shape == (3 * 170,)
-    colon = viscera.intestines(physics.model.ptr)[1]
-    episode = env.task.episode
-    settled_for = physics.data.time  # the clock restarts after the settle: the colon moved little in it
-    assert settled_for == 0.0
-    assert np.max(np.linalg.norm(colon.positions(physics.data.ptr) - episode.others["colon"], axis=1)) < 0.02
-    if env.task.HAS_TARGET:
+    colon = viscera.intestines(physics.model.ptr)[1].positions(physics.data.ptr)
+    from_bank = env.task.episode.others["colon"]
+    shipped = viscera.intestines(mujoco.MjModel.from_xml_path(str(ANATOMICAL)))[1]
+    shipped = shipped.positions(mujoco.MjData(shipped.model))
+    moved_from_bank = np.linalg.norm(colon - from_bank, axis=1).max()
+    assert moved_from_bank < 0.02  # the episode's half-second settle moves its start little ...
+    assert moved_from_bank < np.linalg.norm(colon - shipped, axis=1).max()  # ... and it is the bank's, not the file's
+    if env.task.HAS_TARGET:  # the patch on the wall, as posterior_wall.py's function has it
         centre = physics.target()[:3]
         half_thickness = physics.named.model.site_size["target_area"][2]
-        assert centre[2] == pytest.approx(physics.wall_height(*centre[:2]) + half_thickness, abs=1e-9)
+        wall = settle.posterior_wall.wall_height(centre[0], centre[1])
+        assert centre[2] == pytest.approx(wall + half_thickness, abs=0.0015)
     for _ in range(5):
         step = env.step(np.zeros(env.action_spec().shape))
     assert all(np.isfinite(v).all() for v in step.observation.values())

@@ -79,24 +79,24 @@ class Physics(dm_mujoco.Physics):
             cached = self._intestine = viscera.intestines(model)[0]
         return cached
 
-    def wall_height(self, x: float, y: float) -> float:
-        """The posterior wall's height (m) at (x, y) (m): the top of a heightfield geom called
-        posterior_wall (the anatomical scene's, bilinear between its samples as MuJoCo's
-        triangles are near enough for a drawn site), else 0 (the box abdomen's floor)."""
+    def wall_height(self, x: float, y: float) -> float | None:
+        """The posterior wall's height (m) at (x, y) (m) where it is a heightfield geom called
+        posterior_wall (the anatomical scene's: bilinear between its samples, within a
+        millimetre of MuJoCo's triangles there); None where there is none (the box abdomen's
+        flat floor)."""
         model = self.model.ptr
         geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "posterior_wall")
         if geom < 0 or model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_HFIELD:
-            return 0.0
+            return None
         field = model.geom_dataid[geom]
         rows, columns = model.hfield_nrow[field], model.hfield_ncol[field]
         size = model.hfield_size[field]
-        heights = model.hfield_data[model.hfield_adr[field]:model.hfield_adr[field] + rows * columns]
+        grid = model.hfield_data[model.hfield_adr[field]:model.hfield_adr[field] + rows * columns].reshape(rows, columns)
         local = np.array([x, y]) - self.data.geom_xpos[geom][:2]
         u = np.clip((local[0] + size[0]) / (2 * size[0]) * (columns - 1), 0, columns - 1)
         v = np.clip((local[1] + size[1]) / (2 * size[1]) * (rows - 1), 0, rows - 1)
         i, j = min(int(v), rows - 2), min(int(u), columns - 2)
         fv, fu = v - i, u - j
-        grid = heights.reshape(rows, columns)
         value = ((1 - fv) * ((1 - fu) * grid[i, j] + fu * grid[i, j + 1]) +
                  fv * ((1 - fu) * grid[i + 1, j] + fu * grid[i + 1, j + 1]))
         return float(self.data.geom_xpos[geom][2] + value * size[2])
@@ -447,9 +447,9 @@ class BowelTask(base.Task):
 
         x, y = scene.place_target(self.random, coverage_at, loops_at, region=self.scene.target_region)
         physics.named.model.site_pos["target_area"][:2] = (x, y)
-        if physics.wall_height(x, y) > 0.0:  # a curved wall: the patch on it, as on the box's floor
-            half_thickness = physics.named.model.site_size["target_area"][2]
-            physics.named.model.site_pos["target_area"][2] = physics.wall_height(x, y) + half_thickness
+        wall = physics.wall_height(x, y)
+        if wall is not None:  # a curved wall: the patch on it, as on the box's flat floor
+            physics.named.model.site_pos["target_area"][2] = wall + physics.named.model.site_size["target_area"][2]
         mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
 
     # -- success that lasts

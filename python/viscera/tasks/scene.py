@@ -140,11 +140,6 @@ def _bank(starts: str) -> dict[str, np.ndarray]:
     return _STARTS_CACHE[str(path)]
 
 
-def settled_starts(scene: str = DEFAULT_SCENE) -> np.ndarray:
-    """The scene's bank of the bowel's settled starts (m, (K, n, 3)), read once per process."""
-    return _bank(scene_named(scene).starts)["control_points"]
-
-
 @functools.cache
 def bowel_length(scene: str = DEFAULT_SCENE) -> float:
     """The rest length (m) of the scene's bowel (its first intestine instance), read once per process."""
