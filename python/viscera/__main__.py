@@ -7,6 +7,8 @@
     python -m viscera play TASK --scene anatomical                 # ... in the anatomical abdomen (teleop, record too)
     python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without a person
     python -m viscera replay FILE [--json OUT] [--viewer meshcat] [--trajectory OUT.json]
+    python -m viscera dataset TASK --format lerobot|minari --out PATH [--policy scripted] [--seeds A:B]
+        [--episodes N] [--pixels] [--workers K]          # demonstrations as a LeRobot or Minari dataset
 """
 
 from __future__ import annotations
@@ -361,6 +363,38 @@ def policy_arguments(parser: argparse.ArgumentParser, required: bool) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def dataset(args: argparse.Namespace) -> dict:
+    """The dataset command: every argument checked before the first episode, then a summary line."""
+    policy, recordings = args.policy[0], None
+    choices = ("scripted", "random", "idle", "recordings")
+    if policy not in choices:
+        raise UserError(f"--policy {policy!r}: must be one of {', '.join(choices)}", status=2)
+    if policy == "recordings":
+        if len(args.policy) != 2:
+            raise UserError("--policy recordings needs one folder: --policy recordings DIR", status=2)
+        recordings = args.policy[1]
+        if args.seeds is not None:
+            raise UserError("--seeds with --policy recordings: a recording carries its own seed", status=2)
+    elif len(args.policy) != 1:
+        raise UserError(f"--policy {' '.join(args.policy)!r}: only 'recordings' takes a folder", status=2)
+    seeds = args.seeds if args.seeds is not None else range(args.episodes or 10)
+    if args.episodes is not None and args.seeds is not None and args.episodes > len(seeds):
+        raise UserError(f"--episodes {args.episodes} is more than --seeds {seeds.start}:{seeds.stop} gives "
+                        f"({len(seeds)})", status=2)
+    from viscera import datasets
+    try:
+        summary = datasets.write(args.task, args.out, args.format, demonstrator=policy, seeds=seeds,
+                                 recordings=recordings, episodes_limit=args.episodes, scene=args.scene,
+                                 pixels=args.pixels, size=args.size, workers=args.workers, progress=not args.quiet)
+    except datasets.DatasetError as error:
+        option = {"out": "--out", "recordings": "--policy recordings", "format": "--format"}.get(error.argument)
+        raise UserError(f"{option} {error.value!r}: {error.problem}" if option else str(error), status=2) from None
+    print(f"wrote {summary['episodes']} episodes ({summary['frames']} frames, {summary['successes']} successful) "
+          f"to {summary['out']} ({summary['format']}) in {summary['wall_s']:.1f} s: "
+          f"{summary['episodes_per_hour_per_worker']:.0f} episodes per hour per worker")
+    return summary
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = cli.OneLineParser(prog=PROG, description="viscera: a real-time intestine simulator on MuJoCo. "
                                "Run an MJCF scene with intestines and print a summary, open it in MuJoCo's "
@@ -421,6 +455,30 @@ def build_parser() -> argparse.ArgumentParser:
     task_arguments(record_parser, seed_required=True)
     record_parser.add_argument("--out", type=cli.output_file(".npz"), required=True, help="the recording (.npz)")
     policy_arguments(record_parser, required=True)
+    dataset_parser = commands.add_parser(
+        "dataset", help="collect demonstrations into a LeRobot or Minari dataset",
+        description="Collect episodes of a task, from a demonstrator on a range of seeds or from recordings, "
+        "in worker processes, and write them with LeRobot's or Minari's own writer (docs/learning.md has the "
+        "fields). The dataset appears at --out only once whole.")
+    from viscera.task_registry import TASKS
+    dataset_parser.add_argument("task", choices=tuple(TASKS), metavar="TASK", help=f"one of {', '.join(TASKS)}")
+    dataset_parser.add_argument("--policy", nargs="+", default=["scripted"], metavar="POLICY",
+                                help="scripted (the default), random, idle, or 'recordings DIR': the recordings "
+                                "(*.npz) of a folder, replayed")
+    dataset_parser.add_argument("--episodes", type=cli.positive_int,
+                                help="how many episodes (default: one per seed, or per recording)")
+    dataset_parser.add_argument("--seeds", type=cli.seed_range,
+                                help="the task seeds A:B, A to B - 1 (default 0:EPISODES, or 0:10)")
+    dataset_parser.add_argument("--format", choices=("lerobot", "minari"), required=True)
+    dataset_parser.add_argument("--out", required=True, help="the dataset's path, new (a folder is made there)")
+    dataset_parser.add_argument("--pixels", action="store_true",
+                                help="add the laparoscope's RGB (video in LeRobot), depth and segmentation")
+    dataset_parser.add_argument("--size", type=cli.image_size, default=(84, 84),
+                                help="the images' HEIGHTxWIDTH in pixels (default 84x84)")
+    dataset_parser.add_argument("--scene", choices=SCENES, default="abdomen", help="the cavity (default abdomen)")
+    dataset_parser.add_argument("--workers", type=cli.positive_int, default=1,
+                                help="worker processes collecting episodes (default 1)")
+    dataset_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     replay_parser = commands.add_parser(
         "replay", help="replay a recording bit for bit and print its score",
         description="Replay a recording (teleop --record or record) bit for bit, check it ends in the recorded "
@@ -458,6 +516,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0 if success else 1
         elif args.command == "record":
             record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet, args.scene)
+        elif args.command == "dataset":
+            dataset(args)
         elif args.command == "replay":
             replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet)
         else:

@@ -134,6 +134,29 @@ def seed(text: str) -> int:
     return value
 
 
+def seed_range(text: str) -> range:
+    """argparse type: seeds A:B, the seeds A to B - 1 (0 <= A < B <= 2^32)."""
+    parts = text.split(":")
+    try:
+        first, end = (int(part) for part in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be A:B, two integers (the seeds A to B - 1), got {text!r}") from None
+    if not 0 <= first < end <= MAX_SEED + 1:
+        raise argparse.ArgumentTypeError(f"must be A:B with 0 <= A < B <= 2^32, got {text!r}")
+    return range(first, end)
+
+
+def image_size(text: str) -> tuple[int, int]:
+    """argparse type: HEIGHTxWIDTH in pixels, each 1 to 4096."""
+    try:
+        height, width = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be HEIGHTxWIDTH in pixels, e.g. 84x84, got {text!r}") from None
+    if not (1 <= height <= 4096 and 1 <= width <= 4096):
+        raise argparse.ArgumentTypeError(f"must be HEIGHTxWIDTH, each 1 to 4096 pixels, got {text!r}")
+    return height, width
+
+
 def output_file(*suffixes: str) -> Callable[[str], str]:
     """argparse type: a file to write, ending in one of `suffixes`, in a folder that exists and
     is writable; checked when the command line is read, not after a long run."""

@@ -234,8 +234,18 @@ def test_gymnasium_dict_spaces_and_pixels_only():
     assert isinstance(env.observation_space, gym.spaces.Dict) and env.observation_space.contains(observation)
     assert observation["pixels"].shape == (24, 32, 3)
     env.close()
-    with pytest.raises(ValueError, match="flatten = True with pixels"):
-        TaskEnv("grasp_lift", flatten=True, pixels=True)
+    # flatten=True with pixels: the state entries in one float64 vector beside the images, the
+    # vector equal to the state-only environment's observation of the same episode
+    flat = TaskEnv("grasp_lift", flatten=True, pixels=True, width=32, height=24)
+    state_only = TaskEnv("grasp_lift")
+    both, _ = flat.reset(seed=0)
+    alone, _ = state_only.reset(seed=0)
+    assert list(both) == ["state", "pixels", "depth", "segmentation"] and flat.observation_space.contains(both)
+    assert np.array_equal(both["state"], alone) and np.array_equal(both["pixels"], observation["pixels"])
+    flat.close()
+    state_only.close()
+    with pytest.raises(ValueError, match="flatten = True with pixels_only"):
+        TaskEnv("grasp_lift", flatten=True, pixels=True, pixels_only=True)
     with pytest.raises(ValueError, match="pixels_only = True needs pixels"):
         TaskEnv("grasp_lift", pixels_only=True)
     with pytest.raises(ValueError, match="pixels_only = 'no'"):

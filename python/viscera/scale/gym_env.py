@@ -39,9 +39,10 @@ which CleanRL-style loops cannot batch into one tensor. Here:
   and target_coverage (and their slices of the flat vector), unbounded elsewhere.
 - Pixels: TaskEnv(task, pixels=True, width=84, height=84) adds the camera's `pixels`
   (uint8 RGB), `depth` (float32 m) and `segmentation` (uint8 labels) to a Dict
-  observation (images are not flattened into the float64 vector: flatten must be
-  False, its default then); pixels_only=True keeps those three alone, for vision
-  policies. viscera.pixels documents the camera, viscera.tasks.load the arguments.
+  observation (flatten=False, the default then); with flatten=True the Dict holds
+  `state`, the flat float64 vector of the other entries, beside the three images
+  (never flattened into it; the layout viscera.datasets writes); pixels_only=True keeps
+  the three images alone, for vision policies. viscera.pixels documents the camera, viscera.tasks.load the arguments.
 """
 
 from __future__ import annotations
@@ -97,9 +98,8 @@ class TaskEnv(gymnasium.Env):
             raise ValueError("pixels_only = True needs pixels = True")
         if flatten is None:
             flatten = not pixels
-        if flatten and pixels:
-            raise ValueError("flatten = True with pixels = True: images are not flattened into the float64 vector; "
-                             "use flatten=False (a Dict observation, the default with pixels)")
+        if flatten and pixels_only:
+            raise ValueError("flatten = True with pixels_only = True: there is no state vector to flatten")
         self.task_name = task
         self.dm_env = viscera.tasks.load(task, seed=seed, **task_kwargs)
         self.flatten = flatten
@@ -115,15 +115,21 @@ class TaskEnv(gymnasium.Env):
         observation_spec = self.dm_env.observation_spec()
         if pixels_only:
             observation_spec = collections.OrderedDict((k, observation_spec[k]) for k in IMAGE_KEYS)
-        self.observation_layout = observations.layout(observation_spec)
-        if flatten:
+        if flatten:  # the state entries in one vector; with pixels, the images beside it, unflattened
+            state_spec = collections.OrderedDict((k, v) for k, v in observation_spec.items() if k not in IMAGE_KEYS)
+            self.observation_layout = observations.layout(state_spec)
             size = observations.size(self.observation_layout)
             low, high = np.full(size, -np.inf), np.full(size, np.inf)
             for key, (part, _) in self.observation_layout.items():
                 if key in KNOWN_BOUNDS:
                     low[part], high[part] = KNOWN_BOUNDS[key]
             self.observation_space = gymnasium.spaces.Box(low, high, (size,), np.float64)
+            if pixels:
+                self.observation_space = gymnasium.spaces.Dict(collections.OrderedDict(
+                    [("state", self.observation_space)] +
+                    [(key, _box(observation_spec[key], key)) for key in IMAGE_KEYS]))
         else:
+            self.observation_layout = observations.layout(observation_spec)
             self.observation_space = gymnasium.spaces.Dict(
                 collections.OrderedDict((key, _box(spec, key)) for key, spec in observation_spec.items()))
         self.dm_action_space = _box(self.dm_env.action_spec())
@@ -131,6 +137,7 @@ class TaskEnv(gymnasium.Env):
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, self.dm_action_space.shape, np.float64) \
             if normalize_actions else self.dm_action_space
         self._episode_over = True
+        self.time_step = None  # the latest dm_env time step (reset's, then step's)
 
     def observation(self, dm_observation) -> np.ndarray | dict:
         """The gymnasium observation of a dm_env observation (flat: the entries concatenated in order)."""
@@ -138,7 +145,10 @@ class TaskEnv(gymnasium.Env):
             return collections.OrderedDict((k, np.asarray(dm_observation[k])) for k in IMAGE_KEYS)
         if not self.flatten:
             return collections.OrderedDict((k, np.asarray(v)) for k, v in dm_observation.items())
-        return observations.flatten(dm_observation, self.observation_layout)
+        state = observations.flatten(dm_observation, self.observation_layout)
+        if isinstance(self.observation_space, gymnasium.spaces.Dict):
+            return collections.OrderedDict([("state", state)] + [(k, np.asarray(dm_observation[k])) for k in IMAGE_KEYS])
+        return state
 
     def unflatten(self, observation: np.ndarray) -> dict:
         """The per-key arrays of a flat observation (views; also works on a batch, last axis flat)."""
@@ -156,7 +166,7 @@ class TaskEnv(gymnasium.Env):
         super().reset(seed=seed)
         if seed is not None:
             viscera.tasks.reseed(self.dm_env, seed)
-        time_step = self.dm_env.reset()
+        self.time_step = time_step = self.dm_env.reset()
         self._episode_over = False
         return self.observation(time_step.observation), self._info(time_step)
 
@@ -164,7 +174,7 @@ class TaskEnv(gymnasium.Env):
         if self._episode_over:
             raise RuntimeError("step() after the episode ended (or before reset()): call reset() first")
         action = finite_array("action", action, self.action_space.shape)
-        time_step = self.dm_env.step(self.dm_action(action))
+        self.time_step = time_step = self.dm_env.step(self.dm_action(action))
         terminated = truncated = False
         if time_step.last():
             self._episode_over = True
@@ -175,6 +185,10 @@ class TaskEnv(gymnasium.Env):
         # libraries read (safety-gymnasium, OmniSafe), and under its own name
         info["cost"] = info["tissue_cost"] = assess.step_cost(self.dm_env.physics)
         return (self.observation(time_step.observation), float(time_step.reward), terminated, truncated, info)
+
+    def end_episode(self) -> None:
+        """Mark the episode over (for a caller that stepped `dm_env` itself): step() then needs a reset()."""
+        self._episode_over = True
 
     def dm_action(self, action: np.ndarray) -> np.ndarray:
         """The dm_env action (actuator controls) of a gymnasium action."""

@@ -1,0 +1,220 @@
+"""Demonstrations as standard datasets: LeRobot's and Minari's, each written by its own library.
+
+    python -m viscera dataset grasp_lift --policy scripted --seeds 0:50 --format lerobot --out data/grasp_lift
+    viscera.datasets.write("grasp_lift", "data/grasp_lift", "minari", demonstrator="scripted", seeds=range(50))
+
+Episodes come from a demonstrator (viscera.datasets.episodes.DEMONSTRATORS: the task's scripted
+policy, uniform random actions, idle tools) on the given task seeds, or from the recordings
+of people (`python -m viscera record` / `teleop` files, replayed action by action). They run in
+worker processes and are written in seed (or file) order, so the dataset does not depend on
+the number of workers. The dataset is written under a hidden staging name beside `out` and
+renamed to `out` once whole: an interrupted or failed collection removes it, and a process
+killed outright leaves only the hidden `.NAME.partial-PID` folder, never a dataset at `out`.
+
+Each format is an optional extra (pip install "viscera[lerobot]", "viscera[minari]");
+lerobot_format and minari_format describe what is written where.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import importlib.util
+import multiprocessing
+import os
+import pathlib
+import shutil
+import tempfile
+import time
+
+import numpy as np
+
+from viscera.datasets import episodes
+
+FORMATS = ("lerobot", "minari")
+EXTRA_MODULES = {"lerobot": "lerobot", "minari": "minari"}
+
+
+class DatasetError(ValueError):
+    """A request that cannot be collected: one line naming the argument, its value and what is wrong."""
+
+    def __init__(self, argument: str, value, problem: str):
+        super().__init__(f"{argument} {value!r}: {problem}")
+        self.argument, self.value, self.problem = argument, value, problem
+
+
+def check_format(format: str) -> None:
+    """That `format` is known and its library installed (the extra)."""
+    if format not in FORMATS:
+        raise DatasetError("format", format, f"must be one of {', '.join(FORMATS)}")
+    module = EXTRA_MODULES[format]
+    if importlib.util.find_spec(module) is None or (format == "minari" and importlib.util.find_spec("h5py") is None):
+        raise DatasetError("format", format, f"needs the {format} extra, not installed: "
+                           f"pip install \"viscera[{format}]\"")
+
+
+def check_out(out: str | os.PathLike) -> pathlib.Path:
+    """`out` as a path that does not exist yet, in a writable folder."""
+    path = pathlib.Path(out)
+    if path.exists():
+        raise DatasetError("out", str(path), "exists: a dataset is written to a new path")
+    if not path.parent.is_dir():
+        raise DatasetError("out", str(path), f"folder {str(path.parent)!r} does not exist")
+    try:  # tried, not asked (os.access says yes to root, and to a read-only file system)
+        os.rmdir(tempfile.mkdtemp(prefix=f".{path.name}.probe-", dir=path.parent))
+    except OSError as error:
+        raise DatasetError("out", str(path), f"folder {str(path.parent)!r} is not writable "
+                           f"({error.strerror or error})") from None
+    return path
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """One episode to collect: the environment's arguments, the task's seed, who acts."""
+
+    env_kwargs: tuple            # sorted items of episodes.env_kwargs
+    seed: int
+    demonstrator: str
+    actions: np.ndarray | None = None   # a recording's dm_env actions
+
+
+def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, camera: str) -> list[Job]:
+    """One job per recording file (*.npz, name order) of `folder`, each of `task`."""
+    from viscera import recording
+
+    folder = pathlib.Path(folder)
+    if not folder.is_dir():
+        raise DatasetError("recordings", str(folder), "not a folder")
+    files = sorted(folder.glob("*.npz"))
+    if not files:
+        raise DatasetError("recordings", str(folder), "no recording (*.npz) in it")
+    jobs = []
+    for path in files:
+        try:
+            taken = recording.load(path)
+        except recording.RecordingError as error:
+            raise DatasetError("recordings", str(folder), str(error)) from None
+        if taken.task != task:
+            raise DatasetError("recordings", str(folder), f"{path.name} is of task {taken.task!r}, not {task!r}")
+        if taken.seed is None:
+            raise DatasetError("recordings", str(folder), f"{path.name} has no seed: its episode cannot be replayed")
+        kwargs = episodes.env_kwargs(task, taken.scene, pixels, size, camera, taken.control_timestep_s,
+                                     taken.time_limit_s)
+        jobs.append(Job(tuple(sorted(kwargs.items())), int(taken.seed), taken.policy, taken.actions))
+    return jobs
+
+
+_environments: dict = {}  # a worker's environments, by their arguments
+
+
+def _collect(job: Job) -> episodes.Episode:
+    env = _environments.get(job.env_kwargs)
+    if env is None:
+        from viscera.scale.gym_env import TaskEnv
+
+        env = _environments[job.env_kwargs] = TaskEnv(**dict(job.env_kwargs))
+    return episodes.run(env, job.seed, job.demonstrator, job.actions)
+
+
+def _in_order(jobs: list[Job], workers: int):
+    """The episodes of `jobs`, in order, from `workers` processes (or this one)."""
+    if workers == 1:
+        for job in jobs:
+            yield _collect(job)
+        return
+    # spawn: fresh interpreters, safe beside this process's threads; results come back in job order
+    pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        pending = [pool.submit(_collect, job) for job in jobs]
+        for future in pending:
+            yield future.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "scripted", seeds=range(10),
+          recordings: str | os.PathLike | None = None, episodes_limit: int | None = None, scene: str = "abdomen",
+          pixels: bool = False, size: tuple[int, int] = (84, 84), camera: str = "laparoscope", workers: int = 1,
+          progress: bool = False) -> dict:
+    """Collect episodes of `task` and write them as a `format` dataset at `out` (a new path).
+
+    demonstrator: one of episodes.DEMONSTRATORS, on the task's `seeds`; or recordings: a folder
+    of recording files, replayed (demonstrator is then "recordings"). episodes_limit: at most
+    that many (the first seeds or files). Returns what was written, with the wall time and
+    episodes per hour per worker.
+    """
+    import viscera.tasks
+
+    if task not in viscera.tasks.ALL:
+        raise DatasetError("task", task, f"must be one of {', '.join(viscera.tasks.ALL)}")
+    check_format(format)
+    out = check_out(out)
+    if workers < 1:
+        raise DatasetError("workers", workers, "must be at least 1")
+    if recordings is not None:
+        demonstrator = "recordings"
+        jobs = recording_jobs(task, recordings, pixels, size, camera)
+    else:
+        if demonstrator not in episodes.DEMONSTRATORS:
+            raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}")
+        kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera).items()))
+        jobs = [Job(kwargs, int(seed), demonstrator) for seed in seeds]
+    if episodes_limit is not None:
+        jobs = jobs[:episodes_limit]
+    if not jobs:
+        raise DatasetError("episodes_limit", episodes_limit, "leaves no episode to collect")
+
+    spec = episodes.env_spec(dict(jobs[0].env_kwargs))
+    writer_class = _writer(format)
+    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
+    start = time.perf_counter()
+    written = {"episodes": 0, "frames": 0, "successes": 0}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(jobs), unit="episode", desc=f"{task} {demonstrator} -> {format}")
+    writer = None
+    try:
+        from viscera.scale.gym_env import TaskEnv
+        env = TaskEnv(**dict(jobs[0].env_kwargs))  # the spaces the writers describe
+        writer = writer_class(staging, env, spec, task, demonstrator,
+                              description=f"viscera {task}: {demonstrator} demonstrations")
+        for episode in _in_order(jobs, min(workers, len(jobs))):
+            writer.add(episode)
+            written["episodes"] += 1
+            written["frames"] += episode.steps
+            written["successes"] += int(episode.success)
+            if bar is not None:
+                bar.update()
+        writer.finish()
+        env.close()
+        os.rename(staging, out)  # whole, under its name
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    wall_s = time.perf_counter() - start
+    return dict(written, task=task, format=format, demonstrator=demonstrator, out=str(out), pixels=bool(pixels),
+                workers=min(workers, len(jobs)), wall_s=wall_s,
+                episodes_per_hour_per_worker=written["episodes"] / (wall_s / 3600.0) / min(workers, len(jobs)))
+
+
+def _writer(format: str):
+    if format == "lerobot":
+        from viscera.datasets.lerobot_format import LeRobotWriter
+        return LeRobotWriter
+    from viscera.datasets.minari_format import MinariWriter
+    return MinariWriter
+
+
+def load(out: str | os.PathLike, format: str, task: str, demonstrator: str):
+    """The dataset at `out`, by its own library's loader."""
+    if format == "lerobot":
+        from viscera.datasets import lerobot_format
+        return lerobot_format.load(out, task, demonstrator)
+    from viscera.datasets import minari_format
+    return minari_format.load(out, task, demonstrator)

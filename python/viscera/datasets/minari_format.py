@@ -1,0 +1,83 @@
+"""Episodes into a Minari dataset, written by Minari's own writer (create_dataset_from_buffers,
+then update_dataset_from_buffer per episode): gymnasium's offline-RL format.
+
+The dataset's id is `viscera/<task>/<demonstrator>-v0` under a datasets root (MINARI_DATASETS_PATH):
+
+    MINARI_DATASETS_PATH=OUT python -c "import minari; d = minari.load_dataset('viscera/grasp_lift/scripted-v0')"
+
+- observations: gymnasium's TaskEnv(task, flatten=True[, pixels=True]): the flat float64 state
+  vector, or with pixels a Dict of it (`state`) and the camera's `pixels`, `depth` and
+  `segmentation`, stored raw (lossless; Minari's JPEG encoding is off);
+- actions: normalised to [-1, 1]; rewards, terminations, truncations as the environment gives;
+- infos: `is_success`, and `privileged`, a dict of the privileged state (viscera.datasets.episodes);
+- each episode's seed is the task's seed; the environment spec recovers the environment
+  (`dataset.recover_environment()`, after `import viscera`).
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import warnings
+
+from viscera.datasets.episodes import Episode
+
+
+def dataset_id(task: str, demonstrator: str) -> str:
+    return f"viscera/{task}/{demonstrator.replace(':', '-')}-v0"
+
+
+def _buffer(episode: Episode):
+    from minari.data_collector import EpisodeBuffer
+
+    if episode.images:
+        observations = {"state": episode.state, **episode.images}
+    else:
+        observations = episode.state
+    return EpisodeBuffer(seed=episode.seed, observations=observations, actions=episode.action,
+                         rewards=episode.reward, terminations=episode.terminated, truncations=episode.truncated,
+                         infos={"is_success": episode.is_success, "privileged": dict(episode.privileged)})
+
+
+class MinariWriter:
+    """Writes episodes, one at a time, into a new datasets root `root` (a staging folder)."""
+
+    def __init__(self, root: pathlib.Path, env, spec, task: str, demonstrator: str, description: str):
+        self.root, self.env, self.spec, self.description = pathlib.Path(root), env, spec, description
+        self.id, self.demonstrator = dataset_id(task, demonstrator), demonstrator
+        self.dataset = None
+
+    def add(self, episode: Episode) -> None:
+        import minari
+
+        previous = os.environ.get("MINARI_DATASETS_PATH")
+        os.environ["MINARI_DATASETS_PATH"] = str(self.root)  # where Minari's writer puts the dataset
+        try:
+            if self.dataset is None:
+                with warnings.catch_warnings():  # a dataset made on a user's machine has no permalink or e-mail
+                    warnings.filterwarnings("ignore", message="`(code_permalink|author_email)` is set to None")
+                    self.dataset = minari.create_dataset_from_buffers(
+                        self.id, [_buffer(episode)], env=self.spec, eval_env=self.spec, author="viscera",
+                        algorithm_name=f"viscera {self.demonstrator}", description=self.description,
+                        observation_space=self.env.observation_space, action_space=self.env.action_space,
+                        jpeg_encoding=False)
+            else:
+                self.dataset.update_dataset_from_buffer([_buffer(episode)])
+        finally:
+            if previous is None:
+                os.environ.pop("MINARI_DATASETS_PATH", None)
+            else:
+                os.environ["MINARI_DATASETS_PATH"] = previous
+
+    def finish(self) -> None:
+        """Nothing left to write: each episode was written as it came."""
+
+    def abort(self) -> None:
+        self.dataset = None
+
+
+def load(root: str | os.PathLike, task: str, demonstrator: str):
+    """The Minari dataset a writer made under `root`, by Minari's own loader."""
+    import minari
+
+    return minari.MinariDataset(pathlib.Path(root) / dataset_id(task, demonstrator) / "data")
