@@ -17,7 +17,8 @@ docs/tasks/rates_anatomical.json likewise),
 docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/contacts.json
 (python python/tools/validation/contacts/study.py), docs/validation/tolerance.json
 (python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
-python/tools/reference_band.py) or the plugin's table of config keys
+python/tools/reference_band.py), docs/learning/*.json (python/tools/learning: dataset_speed.py,
+bc.py, rl_grasp_lift.py) or the plugin's table of config keys
 (plugin/mujoco/keys.h, read through the installed viscera).
 """
 
@@ -396,6 +397,53 @@ def value(relative: str, key: str, spec: str):
     if spec.startswith("1/"):
         return format(1.0 / node, spec[2:])
     return format(node, spec)
+
+
+def dataset_speed() -> str:
+    rows = _json("learning/dataset_speed.json")["rows"]
+    tasks = sorted({r["task"] for r in rows})
+    rate = {(r["task"], r["format"], r["pixels"]): r["episodes_per_hour_per_core"] for r in rows}
+    frames = {r["task"]: r["mean_frames_per_episode"] for r in rows if not r["pixels"]}
+    header = ["task", "frames per episode", "LeRobot", "LeRobot, pixels", "Minari", "Minari, pixels"]
+    return _rows(header, [[t, f"{frames[t]:.0f}"] + [f"{rate[(t, f, p)]:.0f}" for f in ("lerobot", "minari")
+                                                     for p in (False, True)] for t in tasks])
+
+
+def _percent(value: float) -> str:
+    return f"{100 * value:.0f} %"
+
+
+def bc_results() -> str:
+    record = _json("learning/bc.json")
+    first, last = record["eval_seeds"]
+    rows = []
+    for task in sorted(record["results"]):
+        for kind in ("state", "pixels"):
+            r = record["results"][task].get(kind)
+            if r is None:
+                continue
+            time = f"{r['median_time_to_success_s']:.1f}" if r["median_time_to_success_s"] is not None else "-"
+            rows.append([task, kind, f"{r['demonstrations']} of {r['demonstrations_collected']}",
+                         f"**{_percent(r['success_rate'])}**", time, f"{r['median_path_length_m']:.2f}",
+                         f"{r['median_peak_force_n']:.1f}", f"{r['median_safety_cost']:.2f}",
+                         f"{r['train_cpu_s'] / 60:.1f}"])
+    header = ["task", "observations", "demonstrations cloned", f"success, seeds {first}-{last}",
+              "median time to success (s)", "median path length (m)", "median peak tool force (N)",
+              "median safety cost", "training (CPU min)"]
+    return _rows(header, rows)
+
+
+def rl_curve() -> str:
+    record = _json("learning/rl_grasp_lift.json")
+    rows = [[f"{c['env_steps']:,}", f"{c['core_hours']:.2f}", _percent(c["success_rate"]), f"{c['mean_return']:.0f}"]
+            for c in record["curve"]]
+    final = record.get("final")
+    if final is not None:
+        first, last = record["final_seeds"]
+        rows.append([f"**{record['train_env_steps']:,} (end)**", f"**{record['train_core_hours']:.2f}**",
+                     f"**{_percent(final['success_rate'])}** on {first}-{last}", f"{final['mean_return']:.0f}"])
+    first, last = record["eval_seeds"]
+    return _rows(["environment steps", "CPU core-hours", f"success, seeds {first}-{last}", "mean return"], rows)
 
 
 def render(text: str) -> str:

@@ -385,7 +385,8 @@ def dataset(args: argparse.Namespace) -> dict:
     try:
         summary = datasets.write(args.task, args.out, args.format, demonstrator=policy, seeds=seeds,
                                  recordings=recordings, episodes_limit=args.episodes, scene=args.scene,
-                                 pixels=args.pixels, size=args.size, workers=args.workers, progress=not args.quiet)
+                                 pixels=args.pixels, size=args.size, workers=args.workers, progress=not args.quiet,
+                                 action_noise=args.action_noise)
     except datasets.DatasetError as error:
         option = {"out": "--out", "recordings": "--policy recordings", "format": "--format"}.get(error.argument)
         raise UserError(f"{option} {error.value!r}: {error.problem}" if option else str(error), status=2) from None
@@ -476,6 +477,9 @@ def build_parser() -> argparse.ArgumentParser:
     dataset_parser.add_argument("--size", type=cli.image_size, default=(84, 84),
                                 help="the images' HEIGHTxWIDTH in pixels (default 84x84)")
     dataset_parser.add_argument("--scene", choices=SCENES, default="abdomen", help="the cavity (default abdomen)")
+    dataset_parser.add_argument("--action-noise", type=cli.fraction, default=0.0, metavar="SIGMA",
+                                help="noise (0 to 1, normalised action units) added to the actions taken while "
+                                "the demonstrator corrects, its commands kept as demonstrator_action (default 0)")
     dataset_parser.add_argument("--workers", type=cli.positive_int, default=1,
                                 help="worker processes collecting episodes (default 1)")
     dataset_parser.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -107,6 +107,14 @@ MAX_DURATION_S = 1e6  # simulated seconds: 11.6 days, beyond any run a person wa
 duration = positive_float_up_to(MAX_DURATION_S, "s")
 
 
+def fraction(text: str) -> float:
+    """argparse type: a number from 0 to 1."""
+    value = _number(float, text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be from 0 to 1, got {text!r}")
+    return value
+
+
 def positive_int(text: str) -> int:
     """argparse type: an integer >= 1."""
     value = _number(int, text)

@@ -27,6 +27,8 @@ def episode(env, act, seed: int) -> dict:
     """One episode of a gymnasium TaskEnv from `seed`, `act(observation) -> action` choosing each
     action: success, return and the assessment's scores (viscera.assess)."""
     observation, info = env.reset(seed=seed)
+    if hasattr(act, "reset"):
+        act.reset()  # a policy with memory (a step count) starts over
     tracer = assess.Tracer(env.dm_env)
     tracer.sample(env.dm_env)
     total, done = 0.0, False
@@ -58,6 +60,13 @@ def summarise(episodes: list[dict]) -> dict:
 def evaluate_policy(env, act, seeds) -> dict:
     """summarise() of one episode per seed."""
     return summarise([episode(env, act, int(seed)) for seed in seeds])
+
+
+def state_names(env) -> list[str]:
+    """The names of a TaskEnv's flat state entries, "key[i]"."""
+    from viscera.datasets.episodes import state_names as names
+
+    return names(env.observation_layout)
 
 
 def versions(*modules: str) -> dict:

@@ -76,6 +76,7 @@ class Job:
     seed: int
     demonstrator: str
     actions: np.ndarray | None = None   # a recording's dm_env actions
+    action_noise: float = 0.0           # episodes.run's
 
 
 def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, camera: str) -> list[Job]:
@@ -113,7 +114,7 @@ def _collect(job: Job) -> episodes.Episode:
         from viscera.scale.gym_env import TaskEnv
 
         env = _environments[job.env_kwargs] = TaskEnv(**dict(job.env_kwargs))
-    return episodes.run(env, job.seed, job.demonstrator, job.actions)
+    return episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise)
 
 
 def _in_order(jobs: list[Job], workers: int):
@@ -135,12 +136,13 @@ def _in_order(jobs: list[Job], workers: int):
 def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "scripted", seeds=range(10),
           recordings: str | os.PathLike | None = None, episodes_limit: int | None = None, scene: str = "abdomen",
           pixels: bool = False, size: tuple[int, int] = (84, 84), camera: str = "laparoscope", workers: int = 1,
-          progress: bool = False) -> dict:
+          progress: bool = False, action_noise: float = 0.0) -> dict:
     """Collect episodes of `task` and write them as a `format` dataset at `out` (a new path).
 
     demonstrator: one of episodes.DEMONSTRATORS, on the task's `seeds`; or recordings: a folder
     of recording files, replayed (demonstrator is then "recordings"). episodes_limit: at most
-    that many (the first seeds or files). Returns what was written, with the wall time and
+    that many (the first seeds or files). action_noise: noise injected into the actions taken
+    (episodes.run), the demonstrator's commands kept apart. Returns what was written, with the wall time and
     episodes per hour per worker.
     """
     import viscera.tasks
@@ -158,7 +160,9 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         if demonstrator not in episodes.DEMONSTRATORS:
             raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}")
         kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera).items()))
-        jobs = [Job(kwargs, int(seed), demonstrator) for seed in seeds]
+        if not (np.isfinite(action_noise) and 0.0 <= action_noise <= 1.0):
+            raise DatasetError("action_noise", action_noise, "must be from 0 to 1 (normalised action units)")
+        jobs = [Job(kwargs, int(seed), demonstrator, None, float(action_noise)) for seed in seeds]
     if episodes_limit is not None:
         jobs = jobs[:episodes_limit]
     if not jobs:

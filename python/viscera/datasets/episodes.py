@@ -33,7 +33,8 @@ class Episode:
     fps: int                        # control ticks per second
     state: np.ndarray               # (T + 1, D) float64, gymnasium's flat observation
     state_names: list[str]          # D names, "key[i]" (TaskEnv.observation_layout)
-    action: np.ndarray              # (T, nu) float64 in [-1, 1], gymnasium's normalised action
+    action: np.ndarray              # (T, nu) float64 in [-1, 1], gymnasium's normalised action, as taken
+    demonstrator_action: np.ndarray  # (T, nu) what the demonstrator commanded (= action without noise)
     action_names: list[str]         # the actuators
     reward: np.ndarray              # (T,) float64
     terminated: np.ndarray          # (T,) bool
@@ -89,17 +90,29 @@ def env_spec(kwargs: dict):
     return dataclasses.replace(spec, kwargs=dict(kwargs))
 
 
-def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None = None) -> Episode:
+NOISE_CORRELATION_S = 0.5  # s, the injected noise's correlation time: slower than the position servos
+
+
+def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None = None,
+        action_noise: float = 0.0) -> Episode:
     """One episode of `env` from the task's `seed`, each action from `demonstrator` (DEMONSTRATORS;
     random draws from the seed) or, given `actions` (a recording's dm_env actions), those in turn
-    until they run out (the episode is then truncated there)."""
+    until they run out (the episode is then truncated there).
+
+    action_noise: the standard deviation (in normalised action units) of noise added to every
+    action taken, an Ornstein-Uhlenbeck process of NOISE_CORRELATION_S drawn from the seed, while
+    the demonstrator keeps correcting from where the noise put the tools (DART, Laskey et al.
+    2017): `demonstrator_action` keeps its commands, the labels a cloned policy learns from."""
     from viscera import recording
 
     dm_env = env.dm_env
     observation, info = env.reset(seed=seed)
     act = None if actions is not None else recording.policy_for(dm_env, demonstrator, seed)
     states, images = [], {k: [] for k in IMAGE_KEYS} if isinstance(observation, dict) else {}
-    moves, rewards, terminated, truncated = [], [], [], []
+    moves, labels, rewards, terminated, truncated = [], [], [], [], []
+    noise_rng = np.random.default_rng([int(seed), 0x5EED])
+    noise = np.zeros(env.action_space.shape)
+    decay = np.exp(-dm_env.control_timestep() / NOISE_CORRELATION_S)
     success, privileged = [info["is_success"]], {k: [] for k in PRIVILEGED}
 
     def keep(observation):
@@ -118,14 +131,19 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
     t = 0
     while True:
         dm_action = np.asarray(actions[t] if actions is not None else act(time_step), dtype=np.float64)
-        action = np.clip(env.gym_action(dm_action), -1.0, 1.0)
-        # the demonstrator's own command steps the simulation; the dataset keeps it normalised
+        label = action = np.clip(env.gym_action(dm_action), -1.0, 1.0)
+        if action_noise > 0.0:
+            noise = decay * noise + action_noise * np.sqrt(1.0 - decay ** 2) * noise_rng.standard_normal(noise.shape)
+            action = np.clip(label + noise, -1.0, 1.0)
+            dm_action = env.dm_action(action)
+        # without noise the demonstrator's own command steps the simulation; the dataset keeps it normalised
         time_step = dm_env.step(dm_action)
         t += 1
         done = time_step.last()
         ended_by_task = done and time_step.discount == 0.0
         cut = limit is not None and t >= limit and not done
         moves.append(action)
+        labels.append(label)
         rewards.append(float(time_step.reward))
         terminated.append(ended_by_task)
         truncated.append((done and not ended_by_task) or cut)
@@ -139,7 +157,8 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
         task=env.task_name, scene=dm_env.task.scene.name,
         seed=int(seed), demonstrator=demonstrator, fps=int(round(1.0 / dm_env.control_timestep())),
         state=np.asarray(states, dtype=np.float64), state_names=state_names(env.observation_layout),
-        action=np.asarray(moves, dtype=np.float64), action_names=names,
+        action=np.asarray(moves, dtype=np.float64), demonstrator_action=np.asarray(labels, dtype=np.float64),
+        action_names=names,
         reward=np.asarray(rewards, dtype=np.float64), terminated=np.asarray(terminated, dtype=bool),
         truncated=np.asarray(truncated, dtype=bool), is_success=np.asarray(success, dtype=bool),
         images={k: np.stack(v) for k, v in images.items()},

@@ -11,7 +11,8 @@ One frame per control tick (LeRobot keeps no frame for the observation after the
 - with pixels, `observation.images.laparoscope`: the laparoscope's RGB as video (LeRobot's
   default AV1 codec: lossy), `observation.depth` (float32, m) and `observation.segmentation`
   (uint8 labels, viscera.pixels.LABELS), both lossless;
-- `action`: float32, normalised to [-1, 1] (gymnasium's action; names: the actuators);
+- `action`: float32, normalised to [-1, 1] (gymnasium's action, as taken; names: the actuators);
+- `demonstrator_action`: what the demonstrator commanded (the action, unless noise was injected);
 - `next.reward` (float32), `next.done`, `next.success` (bool): after the frame's action;
 - `seed`: the task's seed, the same on every frame of an episode;
 - `privileged.<name>`: the privileged state (viscera.datasets.episodes.PRIVILEGED), float32.
@@ -40,6 +41,7 @@ def features(episode: Episode) -> dict:
     found = {
         "observation.state": {"dtype": "float32", "shape": (episode.state.shape[1],), "names": episode.state_names},
         "action": {"dtype": "float32", "shape": (episode.action.shape[1],), "names": episode.action_names},
+        "demonstrator_action": {"dtype": "float32", "shape": (episode.action.shape[1],), "names": episode.action_names},
         "next.reward": {"dtype": "float32", "shape": (1,), "names": None},
         "next.done": {"dtype": "bool", "shape": (1,), "names": None},
         "next.success": {"dtype": "bool", "shape": (1,), "names": None},
@@ -64,6 +66,7 @@ def frames(episode: Episode, criterion: str):
     for t in range(episode.steps):
         frame = {"observation.state": episode.state[t].astype(np.float32),
                  "action": episode.action[t].astype(np.float32),
+                 "demonstrator_action": episode.demonstrator_action[t].astype(np.float32),
                  "next.reward": np.array([episode.reward[t]], dtype=np.float32),
                  "next.done": np.array([episode.terminated[t] or episode.truncated[t]]),
                  "next.success": np.array([episode.is_success[t + 1]]),

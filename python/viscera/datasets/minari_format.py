@@ -9,7 +9,9 @@ The dataset's id is `viscera/<task>/<demonstrator>-v0` under a datasets root (MI
   vector, or with pixels a Dict of it (`state`) and the camera's `pixels`, `depth` and
   `segmentation`, stored raw (lossless; Minari's JPEG encoding is off);
 - actions: normalised to [-1, 1]; rewards, terminations, truncations as the environment gives;
-- infos: `is_success`, and `privileged`, a dict of the privileged state (viscera.datasets.episodes);
+- infos: `is_success`; `privileged`, a dict of the privileged state (viscera.datasets.episodes);
+  `demonstrator_action`, what the demonstrator commanded (the action unless noise was injected;
+  infos follow each step, so row t + 1 labels action t and the reset's row 0 is zeros);
 - each episode's seed is the task's seed; the environment spec recovers the environment
   (`dataset.recover_environment()`, after `import viscera`).
 """
@@ -19,6 +21,8 @@ from __future__ import annotations
 import os
 import pathlib
 import warnings
+
+import numpy as np
 
 from viscera.datasets.episodes import Episode
 
@@ -36,7 +40,9 @@ def _buffer(episode: Episode):
         observations = episode.state
     return EpisodeBuffer(seed=episode.seed, observations=observations, actions=episode.action,
                          rewards=episode.reward, terminations=episode.terminated, truncations=episode.truncated,
-                         infos={"is_success": episode.is_success, "privileged": dict(episode.privileged)})
+                         infos={"is_success": episode.is_success, "privileged": dict(episode.privileged),
+                                "demonstrator_action": np.concatenate([np.zeros_like(episode.action[:1]),
+                                                                       episode.demonstrator_action])})
 
 
 class MinariWriter:
