@@ -470,7 +470,8 @@ def build_parser() -> argparse.ArgumentParser:
                                 help="how many episodes (default: one per seed, or per recording)")
     dataset_parser.add_argument("--seeds", type=cli.seed_range,
                                 help="the task seeds A:B, A to B - 1 (default 0:EPISODES, or 0:10)")
-    dataset_parser.add_argument("--format", choices=("lerobot", "minari"), required=True)
+    dataset_parser.add_argument("--format", choices=("lerobot", "minari"), required=True,
+                                help="lerobot (LeRobotDataset v3: parquet, the RGB as video) or minari (HDF5)")
     dataset_parser.add_argument("--out", required=True, help="the dataset's path, new (a folder is made there)")
     dataset_parser.add_argument("--pixels", action="store_true",
                                 help="add the laparoscope's RGB (video in LeRobot), depth and segmentation")

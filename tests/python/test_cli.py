@@ -29,7 +29,8 @@ TOOLS = {"python -m viscera": "viscera.__main__",
          **{f"python python/tools/{name}.py": name.replace("/", ".")
             for name in ("settle", "soak", "validate", "validation/peers", "bench_fall", "bench_cavity",
                          "bench_rollout", "bench_scale", "bench_pixels", "pixel_pictures", "task_rates",
-                         "task_pictures", "digest", "bench_versus")}}
+                         "task_pictures", "digest", "bench_versus", "learning/bc", "learning/rl_grasp_lift",
+                         "learning/dataset_speed")}}
 
 
 def command(prog: str) -> list[str]:

@@ -259,17 +259,20 @@ DEMOS = {"state": 200, "pixels": 50}            # pixels cost 6 ms a frame to co
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--tasks", nargs="+", choices=TASKS, default=list(TASKS))
-    parser.add_argument("--observations", nargs="+", choices=("state", "pixels"), default=["state", "pixels"])
+    parser = argparse.ArgumentParser(prog="python python/tools/learning/bc.py", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tasks", nargs="+", choices=TASKS, default=list(TASKS), help="default: all four")
+    parser.add_argument("--observations", nargs="+", choices=("state", "pixels"), default=["state", "pixels"],
+                        help="what the policies see (default: both, each its own policy)")
     parser.add_argument("--demos-state", type=int, default=DEMOS["state"],
                         help="scripted episodes for the state policies (seeds 0 to N - 1)")
     parser.add_argument("--demos-pixels", type=int, default=DEMOS["pixels"],
                         help="scripted episodes with pixels for the pixel policies (seeds 0 to N - 1)")
-    parser.add_argument("--data", type=pathlib.Path, default=pathlib.Path("data") / "demos")
-    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2050))
+    parser.add_argument("--data", type=pathlib.Path, default=pathlib.Path("data") / "demos",
+                        help="where the demonstrations' datasets are (written there when missing)")
+    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2050),
+                        help="the unseen seeds A:B the policies are evaluated on (default 2000:2050)")
     parser.add_argument("--workers", type=int, default=2, help="processes collecting and evaluating")
-    parser.add_argument("--out", type=pathlib.Path, default=OUT)
+    parser.add_argument("--out", type=pathlib.Path, default=OUT, help=f"the results JSON (default {OUT})")
     args = parser.parse_args(argv)
     demos = {"state": args.demos_state, "pixels": args.demos_pixels}
     if min(args.eval_seeds) < max(demos.values()):

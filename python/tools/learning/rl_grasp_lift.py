@@ -53,13 +53,16 @@ def evaluate(model, normalizer, seeds: list[int]) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--budget-core-hours", type=float, default=1.0)
+    parser = argparse.ArgumentParser(prog="python python/tools/learning/rl_grasp_lift.py", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--budget-core-hours", type=float, default=1.0,
+                        help="CPU time to train for, evaluations included (default 1.0)")
     parser.add_argument("--envs", type=int, default=4, help="environments stepped in lockstep in this process")
     parser.add_argument("--eval-every", type=int, default=100_000, help="environment steps between evaluations")
-    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2020))
-    parser.add_argument("--final-seeds", type=common.seed_range, default=range(2000, 2050))
-    parser.add_argument("--out", type=pathlib.Path, default=OUT)
+    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2020),
+                        help="the learning curve's unseen seeds A:B (default 2000:2020)")
+    parser.add_argument("--final-seeds", type=common.seed_range, default=range(2000, 2050),
+                        help="the trained policy's unseen seeds A:B (default 2000:2050)")
+    parser.add_argument("--out", type=pathlib.Path, default=OUT, help=f"the results JSON (default {OUT})")
     args = parser.parse_args(argv)
 
     import torch
