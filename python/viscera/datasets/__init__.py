@@ -159,6 +159,11 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
     else:
         if demonstrator not in episodes.DEMONSTRATORS:
             raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}")
+        from viscera.scale.worker import checked_seeds
+        try:
+            seeds = checked_seeds(seeds)
+        except ValueError as error:
+            raise DatasetError("seeds", list(seeds), str(error)) from None
         kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera).items()))
         if not (np.isfinite(action_noise) and 0.0 <= action_noise <= 1.0):
             raise DatasetError("action_noise", action_noise, "must be from 0 to 1 (normalised action units)")

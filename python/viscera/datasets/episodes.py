@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from viscera.checks import finite_array
 from viscera.scale.gym_env import IMAGE_KEYS, TaskEnv
 
 DEMONSTRATORS = ("scripted", "random", "idle")   # with "recordings": the episodes of recording files
@@ -130,7 +131,9 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
     limit = len(actions) if actions is not None else None
     t = 0
     while True:
-        dm_action = np.asarray(actions[t] if actions is not None else act(time_step), dtype=np.float64)
+        # a demonstrator's NaN or wrong-sized command stops here, named, before it reaches MuJoCo
+        dm_action = finite_array(f"action of {demonstrator} for seed {seed} at step {t}",
+                                 actions[t] if actions is not None else act(time_step), env.action_space.shape)
         label = action = np.clip(env.gym_action(dm_action), -1.0, 1.0)
         if action_noise > 0.0:
             noise = decay * noise + action_noise * np.sqrt(1.0 - decay ** 2) * noise_rng.standard_normal(noise.shape)
