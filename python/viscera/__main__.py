@@ -375,8 +375,14 @@ def dataset(args: argparse.Namespace) -> dict:
         recordings = args.policy[1]
         if args.seeds is not None:
             raise UserError("--seeds with --policy recordings: a recording carries its own seed", status=2)
+        for name, value in (("--scene", args.scene), ("--action-noise", args.action_noise or None)):
+            if value is not None:
+                raise UserError(f"{name} with --policy recordings: a recording replays in its own scene, as it "
+                                "was done", status=2)
     elif len(args.policy) != 1:
         raise UserError(f"--policy {' '.join(args.policy)!r}: only 'recordings' takes a folder", status=2)
+    if args.size is not None and not args.pixels:
+        raise UserError(f"--size {args.size[0]}x{args.size[1]} needs --pixels (the images it sizes)", status=2)
     seeds = args.seeds if args.seeds is not None else range(args.episodes or 10)
     if args.episodes is not None and args.seeds is not None and args.episodes > len(seeds):
         raise UserError(f"--episodes {args.episodes} is more than --seeds {seeds.start}:{seeds.stop} gives "
@@ -384,12 +390,14 @@ def dataset(args: argparse.Namespace) -> dict:
     from viscera import datasets
     try:
         summary = datasets.write(args.task, args.out, args.format, demonstrator=policy, seeds=seeds,
-                                 recordings=recordings, episodes_limit=args.episodes, scene=args.scene,
-                                 pixels=args.pixels, size=args.size, workers=args.workers, progress=not args.quiet,
+                                 recordings=recordings, episodes_limit=args.episodes, scene=args.scene or "abdomen",
+                                 pixels=args.pixels, size=args.size or (84, 84), workers=args.workers, progress=not args.quiet,
                                  action_noise=args.action_noise)
     except datasets.DatasetError as error:
-        option = {"out": "--out", "recordings": "--policy recordings", "format": "--format"}.get(error.argument)
-        raise UserError(f"{option} {error.value!r}: {error.problem}" if option else str(error), status=2) from None
+        option = {"out": "--out", "recordings": "--policy recordings", "format": "--format", "seeds": "--seeds",
+                  "action_noise": "--action-noise", "workers": "--workers", "episodes_limit": "--episodes",
+                  "demonstrator": "--policy", "task": "TASK"}[error.argument]
+        raise UserError(f"{option} {error.shown}: {error.problem}", status=2) from None
     print(f"wrote {summary['episodes']} episodes ({summary['frames']} frames, {summary['successes']} successful) "
           f"to {summary['out']} ({summary['format']}) in {summary['wall_s']:.1f} s: "
           f"{summary['episodes_per_hour_per_worker']:.0f} episodes per hour per worker")
@@ -475,9 +483,9 @@ def build_parser() -> argparse.ArgumentParser:
     dataset_parser.add_argument("--out", required=True, help="the dataset's path, new (a folder is made there)")
     dataset_parser.add_argument("--pixels", action="store_true",
                                 help="add the laparoscope's RGB (video in LeRobot), depth and segmentation")
-    dataset_parser.add_argument("--size", type=cli.image_size, default=(84, 84),
+    dataset_parser.add_argument("--size", type=cli.image_size,
                                 help="the images' HEIGHTxWIDTH in pixels (default 84x84)")
-    dataset_parser.add_argument("--scene", choices=SCENES, default="abdomen", help="the cavity (default abdomen)")
+    dataset_parser.add_argument("--scene", choices=SCENES, help="the cavity (default abdomen; a recording has its own)")
     dataset_parser.add_argument("--action-noise", type=cli.fraction, default=0.0, metavar="SIGMA",
                                 help="noise (0 to 1, normalised action units) added to the actions taken while "
                                 "the demonstrator corrects, its commands kept as demonstrator_action (default 0)")

@@ -112,6 +112,23 @@ def test_recordings_of_people_become_a_dataset(tmp_path):
     assert written.truncations[-1] and not written.terminations.any()
 
 
+def test_recordings_that_do_not_replay_or_differ_are_refused(tmp_path):
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    short = recording.record("grasp_lift", seed=5, policy="idle", time_limit_s=0.2)
+    short.save(folder / "a.npz")
+    longer = recording.record("grasp_lift", seed=6, policy="idle", time_limit_s=0.3)
+    longer.save(folder / "b.npz")
+    with pytest.raises(datasets.DatasetError, match="b.npz differs from a.npz in time_limit 0.3 against 0.2"):
+        datasets.write("grasp_lift", tmp_path / "mixed", "minari", recordings=folder)
+    (folder / "b.npz").unlink()
+    short.final_state_sha256 = "0" * 64  # as if recorded by another version
+    short.save(folder / "a.npz")
+    with pytest.raises(datasets.DatasetError, match="recordings 'a.npz': its replay does not end in the recorded state"):
+        datasets.write("grasp_lift", tmp_path / "stale", "minari", recordings=folder, workers=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sessions"]  # no dataset, no staging folder
+
+
 def test_an_interrupted_collection_leaves_no_dataset(tmp_path, monkeypatch):
     real_run, calls = episodes.run, []
 
@@ -147,6 +164,9 @@ def run_cli(capsys, *argv):
     (["grasp_lift", "--format", "minari", "--out", "x", "--policy", "expert"], "--policy 'expert': must be one of"),
     (["grasp_lift", "--format", "minari", "--out", "x", "--episodes", "4", "--seeds", "0:2"], "--episodes 4 is more than --seeds 0:2 gives (2)"),
     (["grasp_lift", "--format", "minari", "--out", "x", "--policy", "recordings", "/no/such"], "--policy recordings '/no/such': not a folder"),
+    (["grasp_lift", "--format", "minari", "--out", "x", "--policy", "recordings", ".", "--scene", "anatomical"], "--scene with --policy recordings"),
+    (["grasp_lift", "--format", "minari", "--out", "x", "--size", "64x64"], "--size 64x64 needs --pixels"),
+    (["grasp_lift", "--format", "minari", "--out", "x", "--action-noise", "2"], "--action-noise: must be from 0 to 1"),
 ])
 def test_dataset_command_mistakes_are_one_line(capsys, argv, expected):
     status, lines = run_cli(capsys, *argv)

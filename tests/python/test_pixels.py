@@ -173,6 +173,21 @@ def test_same_seed_same_frames_and_the_physics_is_unchanged_by_pixels():
         assert np.array_equal(first[key], second[key])
 
 
+def test_render_rgb_is_the_frames_rgb():
+    """render_rgb (one draw: gymnasium's render(), the pixel policies' evaluation) gives the RGB of
+    render()'s frame, bit for bit, on a moving episode, with segmentation draws in between."""
+    env = viscera.tasks.load("grasp_lift", seed=2, pixels=True)
+    env.reset()
+    camera, action = env.task.camera, np.asarray(env.action_spec().maximum) * 0.5
+    for _ in range(3):
+        for _ in range(10):
+            env.step(action)
+        frame = camera.render(env.physics)
+        assert np.array_equal(camera.render_rgb(env.physics), frame["pixels"])
+        assert frame["pixels"].std() > 0  # a picture, not a blank
+    viscera.tasks.close(env)
+
+
 def test_cameras_in_threads_copies_and_pickles_render_alike():
     """Two environments rendered concurrently from two threads, a deep copy and a pickled copy,
     all give the frames one environment gives alone."""

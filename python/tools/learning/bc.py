@@ -64,13 +64,15 @@ def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int 
     time_limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
     env.close()
     states, images, clocks, actions, previous = [], [], [], [], []
-    used = 0
-    for episode in dataset.iterate_episodes():
+    used, seeds = 0, []
+    metadata = list(dataset.storage.get_episode_metadata(dataset.episode_indices))
+    for episode, meta in zip(dataset.iterate_episodes(), metadata):
         if not episode.infos["is_success"][-1]:
             continue
         if limit is not None and used >= limit:
             break
         used += 1
+        seeds.append(int(meta["seed"]))
         steps = len(episode.actions)
         observation = episode.observations
         state = observation["state"][:steps] if isinstance(observation, dict) else observation[:steps]
@@ -82,7 +84,9 @@ def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int 
         actions.append(labels)  # what the script commanded
         # the policy's own previous command (the action taken, noise and all): zeros before the first
         previous.append(np.concatenate([np.zeros_like(episode.actions[:1]), episode.actions[:-1]]))
-    return {"action_names": action_names, "state": np.concatenate(states), "pixels": np.concatenate(images) if pixels else None,
+    if not used:
+        raise SystemExit(f"{root}: no successful demonstration to clone")
+    return {"seeds": seeds, "action_names": action_names, "state": np.concatenate(states), "pixels": np.concatenate(images) if pixels else None,
             "clock": np.concatenate(clocks), "action": np.concatenate(actions),
             "previous_action": np.concatenate(previous), "episodes": used,
             "total_episodes": dataset.total_episodes, "names": names, "time_limit_steps": time_limit_steps}
@@ -209,8 +213,8 @@ def collect(root: pathlib.Path, task: str, demos: int, pixels: bool, workers: in
 
 class RGBOnly:
     """A task's own camera drawing the RGB alone (one draw, bit-identical to its frame's RGB:
-    tests/python/test_pixels.py): a pixel policy reads nothing else, so its evaluation does not
-    pay for depth and segmentation, which come back as zeros."""
+    tests/python/test_pixels.py, test_render_rgb_is_the_frames_rgb): a pixel policy reads nothing
+    else, so its evaluation does not pay for depth and segmentation, which come back as zeros."""
 
     def __init__(self, camera):
         self._camera = camera
@@ -227,6 +231,8 @@ class RGBOnly:
 
 def _evaluate(policy: Cloned, task: str, kind: str, seeds) -> list[dict]:
     from viscera.datasets import episodes
+
+    torch.set_num_threads(1)  # one core per evaluating process
     from viscera.scale.gym_env import TaskEnv
 
     env = TaskEnv(**episodes.env_kwargs(task, "abdomen", kind == "pixels", IMAGE_SIZE))
@@ -287,13 +293,17 @@ def main(argv=None) -> int:
             root = args.data / kind
             collect(root, task, demos[kind], kind == "pixels", args.workers)
             data = load_demonstrations(root / task, task, pixels=kind == "pixels")
+            overlap = sorted(set(data["seeds"]) & set(args.eval_seeds))
+            if overlap:  # a dataset left from another run can hold any seeds: read, not assumed
+                raise SystemExit(f"{root / task}: demonstrations on the evaluation's seeds {overlap[:5]}...")
             policy, wall_s, cpu_s, loss = train(data, kind, UPDATES[kind])
             print(f"{task} {kind}: trained on {data['episodes']} demonstrations ({len(data['action'])} frames) "
                   f"in {wall_s:.0f} s, loss {loss:.4f}; evaluating on {len(args.eval_seeds)} seeds", flush=True)
             result = evaluate(policy, task, kind, list(args.eval_seeds), args.workers)
             result.update(demonstrations=data["episodes"], demonstrations_collected=data["total_episodes"],
-                          demonstration_seeds=[0, demos[kind] - 1], frames=len(data["action"]),
-                          train_wall_s=wall_s, train_cpu_s=cpu_s, final_loss=loss)
+                          demonstration_seeds=[min(data["seeds"]), max(data["seeds"])], frames=len(data["action"]),
+                          train_wall_s=wall_s, train_cpu_s=cpu_s, final_loss=loss, updates=UPDATES[kind],
+                          batch=BATCH[kind], eval_seeds=[min(args.eval_seeds), max(args.eval_seeds)])
             record["results"].setdefault(task, {})[kind] = result
             print(f"{task} {kind}: success {result['success_rate']:.2f}", flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -9,9 +9,10 @@ docs/learning/rl_grasp_lift.json (and its figure, docs/learning/rl_grasp_lift.pn
 - The environment: gymnasium's viscera/GraspLift-v0 (viscera.scale.gym_env.TaskEnv), flat state
   observations (the task's own: tool joints and forces, the grasp, the intestine's axis points,
   gravity, the band), actions normalised to [-1, 1], the task's shaped reward.
-- Training seeds start at 100000 (each environment draws its following episodes from its own
-  RandomState); the curve's seeds (2000-2019) and the final 50 (2000-2049) are seeds no training
-  episode used.
+- Training episodes: stable-baselines3 seeds the vector environment from PPO's seed (0), so
+  environment i starts on the task's seed i and draws its following episodes from that seed's
+  RandomState; the curve's seeds (2000-2019) and the final 50 (2000-2049) are the first episodes
+  of other seeds, which no training episode is.
 - The budget is CPU time: the process's own (learner and environments run in this one process,
   PyTorch on one thread), so a core-hour is an hour of one core. Training stops at the first
   update after it is spent.
@@ -33,7 +34,6 @@ import common  # noqa: E402  (python/tools/learning/common.py)
 
 OUT = pathlib.Path("docs") / "learning" / "rl_grasp_lift.json"
 TASK = "grasp_lift"
-TRAIN_SEED = 100000
 
 
 def evaluate(model, normalizer, seeds: list[int]) -> dict:
@@ -76,21 +76,16 @@ def main(argv=None) -> int:
     budget_s = args.budget_core_hours * 3600.0
     cpu_start = time.process_time()
 
-    def make(i):
-        def build():
-            env = TaskEnv(TASK)
-            env.reset(seed=TRAIN_SEED + i)  # its RandomState: the following episodes are drawn from it
-            return env
-        return build
-
-    venv = VecNormalize(VecMonitor(DummyVecEnv([make(i) for i in range(args.envs)])),
+    # seeded at the first reset (from PPO's seed): environment i from task seed i
+    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: TaskEnv(TASK)] * args.envs)),
                         norm_obs=True, norm_reward=False, clip_obs=10.0)
     hyper = dict(n_steps=1024, batch_size=256, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95,
                  clip_range=0.2, ent_coef=0.0, policy_kwargs=dict(net_arch=[256, 256], log_std_init=-0.5))
     model = PPO("MlpPolicy", venv, seed=0, verbose=0, device="cpu", **hyper)
     curve: list[dict] = []
     record = {"task": TASK, "algorithm": "PPO (stable-baselines3)", "hyperparameters": hyper,
-              "envs": args.envs, "budget_core_hours": args.budget_core_hours, "train_seed_start": TRAIN_SEED,
+              "envs": args.envs, "budget_core_hours": args.budget_core_hours,
+              "train_seeds": f"environment i starts on task seed i (0 to {args.envs - 1}), then draws from its RandomState",
               "eval_seeds": [min(args.eval_seeds), max(args.eval_seeds)],
               "final_seeds": [min(args.final_seeds), max(args.final_seeds)], "curve": curve,
               "versions": common.versions("stable_baselines3", "torch")}

@@ -5,11 +5,14 @@
 
 Episodes come from a demonstrator (viscera.datasets.episodes.DEMONSTRATORS: the task's scripted
 policy, uniform random actions, idle tools) on the given task seeds, or from the recordings
-of people (`python -m viscera record` / `teleop` files, replayed action by action). They run in
+of people (`python -m viscera record` / `teleop` files, replayed action by action, each checked to
+end in the state it recorded). They run in
 worker processes and are written in seed (or file) order, so the dataset does not depend on
-the number of workers. The dataset is written under a hidden staging name beside `out` and
-renamed to `out` once whole: an interrupted or failed collection removes it, and a process
-killed outright leaves only the hidden `.NAME.partial-PID` folder, never a dataset at `out`.
+the number of workers. The dataset is written in a hidden staging folder beside `out` and
+moved to `out` once whole: an interrupted or failed collection removes it, and a process killed
+outright leaves only the hidden `.NAME.partial-XXXX` folder, never a dataset at `out`. (One
+exception keeps it: a whole dataset whose `out` appeared meanwhile stays in the staging folder,
+which the error names.)
 
 Each format is an optional extra (pip install "viscera[lerobot]", "viscera[minari]");
 lerobot_format and minari_format describe what is written where.
@@ -17,7 +20,9 @@ lerobot_format and minari_format describe what is written where.
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
+import contextlib
 import dataclasses
 import importlib.util
 import multiprocessing
@@ -39,8 +44,12 @@ class DatasetError(ValueError):
     """A request that cannot be collected: one line naming the argument, its value and what is wrong."""
 
     def __init__(self, argument: str, value, problem: str):
-        super().__init__(f"{argument} {value!r}: {problem}")
-        self.argument, self.value, self.problem = argument, value, problem
+        shown = f"{value.start}:{value.stop}" if isinstance(value, range) else repr(value)
+        super().__init__(f"{argument} {shown}: {problem}")
+        self.argument, self.value, self.problem, self.shown = argument, value, problem, shown
+
+    def __reduce__(self):  # raised in a worker process, it crosses back whole
+        return DatasetError, (self.argument, self.value, self.problem)
 
 
 def check_format(format: str) -> None:
@@ -68,7 +77,7 @@ def check_out(out: str | os.PathLike) -> pathlib.Path:
     return path
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Job:
     """One episode to collect: the environment's arguments, the task's seed, who acts."""
 
@@ -77,10 +86,13 @@ class Job:
     demonstrator: str
     actions: np.ndarray | None = None   # a recording's dm_env actions
     action_noise: float = 0.0           # episodes.run's
+    final_state_sha256: str | None = None  # a recording's: its replay must end there
+    source: str = ""                    # a recording's file name, for errors
 
 
 def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, camera: str) -> list[Job]:
-    """One job per recording file (*.npz, name order) of `folder`, each of `task`."""
+    """One job per recording file (*.npz, name order) of `folder`, each of `task`, all of one
+    scene, control period and time limit (one dataset has one environment)."""
     from viscera import recording
 
     folder = pathlib.Path(folder)
@@ -99,13 +111,22 @@ def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, cam
             raise DatasetError("recordings", str(folder), f"{path.name} is of task {taken.task!r}, not {task!r}")
         if taken.seed is None:
             raise DatasetError("recordings", str(folder), f"{path.name} has no seed: its episode cannot be replayed")
-        kwargs = episodes.env_kwargs(task, taken.scene, pixels, size, camera, taken.control_timestep_s,
-                                     taken.time_limit_s)
-        jobs.append(Job(tuple(sorted(kwargs.items())), int(taken.seed), taken.policy, taken.actions))
+        if taken.steps == 0:
+            raise DatasetError("recordings", str(folder), f"{path.name} has no action")
+        kwargs = tuple(sorted(episodes.env_kwargs(task, taken.scene, pixels, size, camera, taken.control_timestep_s,
+                                                  taken.time_limit_s).items()))
+        if jobs and kwargs != jobs[0].env_kwargs:
+            first, this = dict(jobs[0].env_kwargs), dict(kwargs)
+            differ = ", ".join(f"{k} {this.get(k)!r} against {first.get(k)!r}" for k in sorted(set(first) | set(this))
+                               if first.get(k) != this.get(k))
+            raise DatasetError("recordings", str(folder), f"{path.name} differs from {jobs[0].source} in {differ}: "
+                               "one dataset holds one environment's episodes")
+        jobs.append(Job(kwargs, int(taken.seed), taken.policy, taken.actions,
+                        final_state_sha256=taken.final_state_sha256, source=path.name))
     return jobs
 
 
-_environments: dict = {}  # a worker's environments, by their arguments
+_environments: dict = {}  # this process's environments, by their arguments
 
 
 def _collect(job: Job) -> episodes.Episode:
@@ -114,7 +135,19 @@ def _collect(job: Job) -> episodes.Episode:
         from viscera.scale.gym_env import TaskEnv
 
         env = _environments[job.env_kwargs] = TaskEnv(**dict(job.env_kwargs))
-    return episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise)
+    episode = episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise)
+    if job.final_state_sha256 is not None:
+        from viscera import recording
+
+        if recording.final_state_sha256(env.dm_env.physics) != job.final_state_sha256:
+            raise DatasetError("recordings", job.source, "its replay does not end in the recorded state (another "
+                               "viscera or MuJoCo version?): its episode is not the one recorded")
+    return episode
+
+
+def _close_environments() -> None:
+    while _environments:
+        _environments.popitem()[1].close()
 
 
 def _in_order(jobs: list[Job], workers: int):
@@ -123,12 +156,15 @@ def _in_order(jobs: list[Job], workers: int):
         for job in jobs:
             yield _collect(job)
         return
-    # spawn: fresh interpreters, safe beside this process's threads; results come back in job order
+    # spawn: fresh interpreters, safe beside this process's threads; results come back in job
+    # order, at most 2 x workers in flight so that finished episodes (images and all) do not pile up
     pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
     try:
-        pending = [pool.submit(_collect, job) for job in jobs]
-        for future in pending:
-            yield future.result()
+        waiting, pending = collections.deque(jobs), collections.deque()
+        while waiting or pending:
+            while waiting and len(pending) < 2 * workers:
+                pending.append(pool.submit(_collect, waiting.popleft()))
+            yield pending.popleft().result()
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -139,11 +175,13 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
           progress: bool = False, action_noise: float = 0.0) -> dict:
     """Collect episodes of `task` and write them as a `format` dataset at `out` (a new path).
 
-    demonstrator: one of episodes.DEMONSTRATORS, on the task's `seeds`; or recordings: a folder
-    of recording files, replayed (demonstrator is then "recordings"). episodes_limit: at most
-    that many (the first seeds or files). action_noise: noise injected into the actions taken
-    (episodes.run), the demonstrator's commands kept apart. Returns what was written, with the wall time and
-    episodes per hour per worker.
+    demonstrator: one of episodes.DEMONSTRATORS, on the task's `seeds` (on `scene`); or
+    recordings: a folder of recording files, each replayed in its own scene, control period and
+    time limit (all alike) and checked to end in its recorded state (demonstrator is then
+    "recordings"). episodes_limit: at most that many (the first seeds or files). action_noise:
+    noise injected into the actions taken (episodes.run), the demonstrator's commands kept apart;
+    not with recordings. Returns what was written, with the wall time and episodes per hour per
+    worker.
     """
     import viscera.tasks
 
@@ -151,65 +189,86 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         raise DatasetError("task", task, f"must be one of {', '.join(viscera.tasks.ALL)}")
     check_format(format)
     out = check_out(out)
-    if workers < 1:
-        raise DatasetError("workers", workers, "must be at least 1")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise DatasetError("workers", workers, "must be an integer, at least 1")
+    if not (np.isfinite(action_noise) and 0.0 <= action_noise <= 1.0):
+        raise DatasetError("action_noise", action_noise, "must be from 0 to 1 (normalised action units)")
+    if episodes_limit is not None and (isinstance(episodes_limit, bool) or not isinstance(episodes_limit, int)
+                                       or episodes_limit < 1):
+        raise DatasetError("episodes_limit", episodes_limit, "must be an integer, at least 1")
     if recordings is not None:
+        if action_noise:
+            raise DatasetError("action_noise", action_noise, "not with recordings: they replay what was done")
         demonstrator = "recordings"
         jobs = recording_jobs(task, recordings, pixels, size, camera)
     else:
         if demonstrator not in episodes.DEMONSTRATORS:
             raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}")
         from viscera.scale.worker import checked_seeds
+        if episodes_limit is not None:
+            seeds = seeds[:episodes_limit]  # before the seeds are listed: a range may be 2^32 long
         try:
             seeds = checked_seeds(seeds)
         except ValueError as error:
-            raise DatasetError("seeds", list(seeds), str(error)) from None
+            raise DatasetError("seeds", seeds, str(error)) from None
         kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera).items()))
-        if not (np.isfinite(action_noise) and 0.0 <= action_noise <= 1.0):
-            raise DatasetError("action_noise", action_noise, "must be from 0 to 1 (normalised action units)")
         jobs = [Job(kwargs, int(seed), demonstrator, None, float(action_noise)) for seed in seeds]
-    if episodes_limit is not None:
-        jobs = jobs[:episodes_limit]
+    jobs = jobs[:episodes_limit]
     if not jobs:
-        raise DatasetError("episodes_limit", episodes_limit, "leaves no episode to collect")
+        raise DatasetError("seeds", seeds, "no episode to collect")
 
     spec = episodes.env_spec(dict(jobs[0].env_kwargs))
     writer_class = _writer(format)
-    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
+    # a fresh hidden folder beside `out` (a killed run's stays apart); the dataset is written in it
+    # and moved to `out` once whole
+    staging = pathlib.Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
     start = time.perf_counter()
     written = {"episodes": 0, "frames": 0, "successes": 0}
+    workers = min(workers, len(jobs))
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(jobs), unit="episode", desc=f"{task} {demonstrator} -> {format}")
-    writer = None
+    writer, env, finished = None, None, False
     try:
         from viscera.scale.gym_env import TaskEnv
         env = TaskEnv(**dict(jobs[0].env_kwargs))  # the spaces the writers describe
-        writer = writer_class(staging, env, spec, task, demonstrator,
+        writer = writer_class(staging / "dataset", env, spec, task, demonstrator,
                               description=f"viscera {task}: {demonstrator} demonstrations")
-        for episode in _in_order(jobs, min(workers, len(jobs))):
-            writer.add(episode)
-            written["episodes"] += 1
-            written["frames"] += episode.steps
-            written["successes"] += int(episode.success)
-            if bar is not None:
-                bar.update()
+        with contextlib.closing(_in_order(jobs, workers)) as collected:
+            for episode in collected:
+                writer.add(episode)
+                written["episodes"] += 1
+                written["frames"] += episode.steps
+                written["successes"] += int(episode.success)
+                if bar is not None:
+                    bar.update()
         writer.finish()
-        env.close()
-        os.rename(staging, out)  # whole, under its name
-    except BaseException:
-        if writer is not None:
-            writer.abort()
-        shutil.rmtree(staging, ignore_errors=True)
+        finished = True
+        if out.exists():
+            raise DatasetError("out", str(out), f"appeared during the collection; the dataset is kept in "
+                               f"{str(staging / 'dataset')!r}")
+        os.rename(staging / "dataset", out)  # whole, under its name
+        staging.rmdir()
+    except BaseException as error:
+        keep = finished and isinstance(error, DatasetError)
+        try:
+            if writer is not None and not finished:
+                writer.abort()
+        finally:
+            if not keep:
+                shutil.rmtree(staging, ignore_errors=True)
         raise
     finally:
         if bar is not None:
             bar.close()
+        if env is not None:
+            env.close()
+        _close_environments()
     wall_s = time.perf_counter() - start
     return dict(written, task=task, format=format, demonstrator=demonstrator, out=str(out), pixels=bool(pixels),
-                workers=min(workers, len(jobs)), wall_s=wall_s,
-                episodes_per_hour_per_worker=written["episodes"] / (wall_s / 3600.0) / min(workers, len(jobs)))
+                workers=workers, wall_s=wall_s,
+                episodes_per_hour_per_worker=written["episodes"] / (wall_s / 3600.0) / workers)
 
 
 def _writer(format: str):
