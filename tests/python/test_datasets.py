@@ -184,3 +184,25 @@ def test_dataset_command_names_the_missing_extra(capsys, monkeypatch, tmp_path):
 def test_existing_out_is_refused(capsys, tmp_path):
     status, lines = run_cli(capsys, "grasp_lift", "--format", "minari", "--out", str(tmp_path))
     assert status == 2 and len(lines) == 1 and "exists: a dataset is written to a new path" in lines[0]
+
+
+def test_ctrl_c_mid_collection_leaves_nothing(tmp_path):
+    """Ctrl-C at a terminal signals the whole process group, the worker processes too: the
+    command ends in one line with status 130, and leaves neither a dataset nor its staging folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    process = subprocess.Popen([sys.executable, "-m", "viscera", "dataset", "grasp_lift", "--format", "minari",
+                                "--out", str(tmp_path / "d"), "--seeds", "0:40", "--workers", "2", "--quiet"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not list(tmp_path.glob(".d.partial-*/dataset/**/main_data.hdf5")):  # the first episode is written
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.1)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130 and stderr.strip().splitlines() == ["python -m viscera dataset: interrupted"]
+    assert list(tmp_path.iterdir()) == []
