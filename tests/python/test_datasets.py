@@ -197,7 +197,9 @@ def test_ctrl_c_mid_collection_leaves_nothing(tmp_path):
 
     process = subprocess.Popen([sys.executable, "-m", "viscera", "dataset", "grasp_lift", "--format", "minari",
                                 "--out", str(tmp_path / "d"), "--seeds", "0:40", "--workers", "2", "--quiet"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               # as from a terminal: Ctrl-C's default action, whatever this process inherited
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 300
     while not list(tmp_path.glob(".d.partial-*/dataset/**/main_data.hdf5")):  # the first episode is written
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()

@@ -29,7 +29,9 @@ import multiprocessing
 import os
 import pathlib
 import shutil
+import signal
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -150,23 +152,71 @@ def _close_environments() -> None:
         _environments.popitem()[1].close()
 
 
-def _in_order(jobs: list[Job], workers: int):
+class _CtrlC:
+    """Ctrl-C that cannot be lost: Python drops a KeyboardInterrupt raised inside a garbage
+    collector's callback ("Exception ignored in ..."), so the press is also remembered, and
+    `check()` raises it at the next episode or wait. Installed only over Python's own handler,
+    in the main thread (an ignored or custom SIGINT is left alone)."""
+
+    def __init__(self):
+        self.pressed, self.previous = False, None
+
+    def __enter__(self):
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.pressed = True
+        raise KeyboardInterrupt
+
+    def check(self) -> None:
+        if self.pressed:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+
+
+def _in_order(jobs: list[Job], workers: int, ctrl_c: _CtrlC):
     """The episodes of `jobs`, in order, from `workers` processes (or this one)."""
     if workers == 1:
         for job in jobs:
+            ctrl_c.check()
             yield _collect(job)
         return
     # spawn: fresh interpreters, safe beside this process's threads; results come back in job
     # order, at most 2 x workers in flight so that finished episodes (images and all) do not pile up
-    pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+    pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                                  initializer=_worker_ignores_ctrl_c)
     try:
         waiting, pending = collections.deque(jobs), collections.deque()
         while waiting or pending:
             while waiting and len(pending) < 2 * workers:
                 pending.append(pool.submit(_collect, waiting.popleft()))
-            yield pending.popleft().result()
+            while True:  # waits in short slices: a Ctrl-C the collector dropped is seen within one
+                ctrl_c.check()
+                try:
+                    episode = pending[0].result(timeout=0.25)
+                    break
+                except concurrent.futures.TimeoutError:
+                    continue
+            pending.popleft()
+            yield episode
+    except BaseException:
+        # stopped (Ctrl-C, an error, the writer's): the episodes in flight are not wanted
+        for process in list((pool._processes or {}).values()):
+            process.terminate()
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _worker_ignores_ctrl_c() -> None:
+    """A worker leaves Ctrl-C (sent to the whole process group) to the parent, which stops it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "scripted", seeds=range(10),
@@ -235,8 +285,9 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         env = TaskEnv(**dict(jobs[0].env_kwargs))  # the spaces the writers describe
         writer = writer_class(staging / "dataset", env, spec, task, demonstrator,
                               description=f"viscera {task}: {demonstrator} demonstrations")
-        with contextlib.closing(_in_order(jobs, workers)) as collected:
+        with _CtrlC() as ctrl_c, contextlib.closing(_in_order(jobs, workers, ctrl_c)) as collected:
             for episode in collected:
+                ctrl_c.check()
                 writer.add(episode)
                 written["episodes"] += 1
                 written["frames"] += episode.steps
