@@ -433,6 +433,16 @@ def bc_results() -> str:
     return _rows(header, rows)
 
 
+def bc_variants() -> str:
+    rows = []
+    for v in _json("learning/bc_variants.json")["variants"]:
+        first, last = v["eval_seeds"]
+        noise = f", DART noise {v['action_noise']:g}" if v["action_noise"] else ""
+        rows.append([f"{v['demonstrations']} of {v['demonstrations_collected']}{noise}", v["inputs"], v["target"],
+                     f"{_percent(v['success_rate'])} ({first}-{last})"])
+    return _rows(["demonstrations cloned", "inputs", "target", "success (seeds)"], rows)
+
+
 def rl_curve() -> str:
     record = _json("learning/rl_grasp_lift.json")
     rows = [[f"{c['env_steps']:,}", f"{c['core_hours']:.2f}", _percent(c["success_rate"]), f"{c['mean_return']:.0f}"]
@@ -442,6 +452,9 @@ def rl_curve() -> str:
         first, last = record["final_seeds"]
         rows.append([f"**{record['train_env_steps']:,} (end)**", f"**{record['train_core_hours']:.2f}**",
                      f"**{_percent(final['success_rate'])}** on {first}-{last}", f"{final['mean_return']:.0f}"])
+    for name, reference in record.get("references_on_eval_seeds", {}).items():
+        label = "the scripted policy" if name == "scripted" else "uniform random actions"
+        rows.append([f"*{label}*", "-", _percent(reference["success_rate"]), f"{reference['mean_return']:.0f}"])
     first, last = record["eval_seeds"]
     return _rows(["environment steps", "CPU core-hours", f"success, seeds {first}-{last}", "mean return"], rows)
 

@@ -81,24 +81,30 @@ def versions(*modules: str) -> dict:
 
 
 def curve_figure(record: dict, path: pathlib.Path) -> None:
-    """Success on the unseen seeds against environment steps and against CPU core-hours."""
+    """Success and mean return on the unseen seeds against environment steps and against CPU
+    core-hours, with the scripted policy's and random actions' returns on the same seeds."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     curve = record["curve"]
-    steps = [c["env_steps"] for c in curve]
-    hours = [c["core_hours"] for c in curve]
-    success = [100.0 * c["success_rate"] for c in curve]
-    figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.6), sharey=True)
-    left.plot(steps, success, marker="o")
-    left.set_xlabel("environment steps")
-    left.set_ylabel(f"success on {record['eval_seeds'][1] - record['eval_seeds'][0] + 1} unseen seeds (%)")
-    right.plot(hours, success, marker="o", color="C1")
-    right.set_xlabel("CPU core-hours (learner and environments)")
-    for axes in (left, right):
-        axes.set_ylim(-5, 105)
-        axes.grid(alpha=0.3)
+    count = record["eval_seeds"][1] - record["eval_seeds"][0] + 1
+    figure, axes = plt.subplots(2, 2, figsize=(10, 6), sharex="col", sharey="row")
+    for column, (key, label) in enumerate((("env_steps", "environment steps"),
+                                           ("core_hours", "CPU core-hours (learner and environments)"))):
+        x = [c[key] for c in curve]
+        axes[0, column].plot(x, [100.0 * c["success_rate"] for c in curve], marker="o")
+        axes[0, column].set_ylim(-5, 105)
+        axes[1, column].plot(x, [c["mean_return"] for c in curve], marker="o", color="C1", label="PPO")
+        for name, reference in record.get("references_on_eval_seeds", {}).items():
+            axes[1, column].axhline(reference["mean_return"], linestyle="--", color="C2" if name == "scripted" else "C3",
+                                    label=f"{name} ({100 * reference['success_rate']:.0f} % success)")
+        axes[1, column].set_xlabel(label)
+        for row in axes[:, column]:
+            row.grid(alpha=0.3)
+    axes[0, 0].set_ylabel(f"success on {count} unseen seeds (%)")
+    axes[1, 0].set_ylabel("mean episode return")
+    axes[1, 1].legend(loc="lower right", fontsize=8)
     figure.suptitle(f"{record['algorithm']} on {record['task']}")
     figure.tight_layout()
     figure.savefig(path, dpi=110)

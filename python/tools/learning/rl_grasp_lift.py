@@ -52,6 +52,30 @@ def evaluate(model, normalizer, seeds: list[int]) -> dict:
         env.close()
 
 
+def references(seeds: list[int]) -> dict:
+    """The scripted policy's and uniform random actions' success and return on `seeds`: what the
+    curve's returns compare with (the script ends its episodes early, on success)."""
+    import viscera.tasks
+    from viscera.scale.gym_env import TaskEnv
+
+    env = TaskEnv(TASK)
+
+    class Scripted:
+        def reset(self):
+            self.policy = viscera.tasks.scripted_policy(env.dm_env)
+
+        def __call__(self, observation):
+            return np.clip(env.gym_action(self.policy(env.time_step)), -1.0, 1.0)
+
+    rng = np.random.default_rng(0)
+    found = {}
+    for name, act in (("scripted", Scripted()), ("random", lambda o: rng.uniform(-1.0, 1.0, env.action_space.shape))):
+        result = common.evaluate_policy(env, act, seeds)
+        found[name] = {"success_rate": result["success_rate"], "mean_return": result["mean_return"]}
+    env.close()
+    return found
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python python/tools/learning/rl_grasp_lift.py", description=__doc__.split("\n\n")[0])
     parser.add_argument("--budget-core-hours", type=float, default=1.0,
@@ -89,6 +113,9 @@ def main(argv=None) -> int:
               "eval_seeds": [min(args.eval_seeds), max(args.eval_seeds)],
               "final_seeds": [min(args.final_seeds), max(args.final_seeds)], "curve": curve,
               "versions": common.versions("stable_baselines3", "torch")}
+
+    record["references_on_eval_seeds"] = references(list(args.eval_seeds))
+    record["references_note"] = "the scripted policy and uniform random actions on the curve's seeds, the same episode returns"
 
     def write():
         args.out.parent.mkdir(parents=True, exist_ok=True)
