@@ -153,13 +153,16 @@ def _close_environments() -> None:
 
 
 class _CtrlC:
-    """Ctrl-C that cannot be lost: Python drops a KeyboardInterrupt raised inside a garbage
-    collector's callback ("Exception ignored in ..."), so the press is also remembered, and
-    `check()` raises it at the next episode or wait. Installed only over Python's own handler,
-    in the main thread (an ignored or custom SIGINT is left alone)."""
+    """Ctrl-C that cannot be lost: the press is remembered and `check()` raises KeyboardInterrupt
+    at the next episode or wait. With `raise_now` (episodes run in this process) the handler
+    raises at once too; Python drops it if it lands in a garbage collector's callback
+    ("Exception ignored in ..."), which the remembered press makes up for. Without (worker
+    processes), the handler only remembers: raised inside the process pool's own calls, it could
+    leave their locks held. Installed only over Python's own handler, in the main thread (an
+    ignored or custom SIGINT is left alone)."""
 
-    def __init__(self):
-        self.pressed, self.previous = False, None
+    def __init__(self, raise_now: bool):
+        self.pressed, self.previous, self.raise_now = False, None, raise_now
 
     def __enter__(self):
         if (threading.current_thread() is threading.main_thread()
@@ -169,7 +172,8 @@ class _CtrlC:
 
     def _handler(self, signum, frame):
         self.pressed = True
-        raise KeyboardInterrupt
+        if self.raise_now:
+            raise KeyboardInterrupt
 
     def check(self) -> None:
         if self.pressed:
@@ -205,12 +209,10 @@ def _in_order(jobs: list[Job], workers: int, ctrl_c: _CtrlC):
                     continue
             pending.popleft()
             yield episode
-    except BaseException:
-        # stopped (Ctrl-C, an error, the writer's): the episodes in flight are not wanted
-        for process in list((pool._processes or {}).values()):
-            process.terminate()
-        raise
     finally:
+        # stopped early (Ctrl-C, an error, the writer's) or done: the queued episodes are cancelled,
+        # the running ones finish (a worker ignores Ctrl-C; one killed mid-reply would leave the
+        # pool's reader waiting for the rest of its message for ever)
         pool.shutdown(wait=True, cancel_futures=True)
 
 
@@ -285,7 +287,7 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         env = TaskEnv(**dict(jobs[0].env_kwargs))  # the spaces the writers describe
         writer = writer_class(staging / "dataset", env, spec, task, demonstrator,
                               description=f"viscera {task}: {demonstrator} demonstrations")
-        with _CtrlC() as ctrl_c, contextlib.closing(_in_order(jobs, workers, ctrl_c)) as collected:
+        with _CtrlC(raise_now=workers == 1) as ctrl_c, contextlib.closing(_in_order(jobs, workers, ctrl_c)) as collected:
             for episode in collected:
                 ctrl_c.check()
                 writer.add(episode)
