@@ -3,24 +3,13 @@ assessment's scores, library versions, and the learning-curve figure."""
 
 from __future__ import annotations
 
-import argparse
 import importlib.metadata
 import pathlib
 
 import numpy as np
 
 from viscera import assess
-
-
-def seed_range(text: str) -> range:
-    """'A:B' (argparse type): the seeds A to B - 1."""
-    try:
-        first, end = (int(part) for part in text.split(":"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be A:B, integers, A < B") from None
-    if not 0 <= first < end:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be A:B with 0 <= A < B")
-    return range(first, end)
+from viscera.cli import seed_range  # noqa: F401  (argparse type of the tools' seed options)
 
 
 def episode(env, act, seed: int) -> dict:
