@@ -72,7 +72,7 @@ def laparoscope(out: pathlib.Path, seed: int, size: int) -> dict:
     cli.save_png(str(out / "laparoscope_after.png"), pixel_pictures.strip(step.observation))
     episode = {"task": "clear_area", "scene": "anatomical", "seed": seed,
                "success": bool(env.task.success(env.physics)), "simulated_s": round(float(env.physics.data.time), 2),
-               "uncovered": round(float(step.reward), 3)}
+               "uncovered": round(env.task.measurements(env.physics).uncovered_fraction, 3)}
     viscera.tasks.close(env)
     return episode
 

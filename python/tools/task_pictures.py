@@ -40,7 +40,7 @@ def cavity(out: pathlib.Path, seed: int = 0) -> dict:
     while not step.last():
         step = env.step(policy(step))
     cli.save_png(out / "cavity_after.png", env.physics.render(height=480, width=640, camera_id="top"))
-    return {"seed": seed, "uncovered": round(float(step.reward), 3),
+    return {"seed": seed, "uncovered": round(env.task.measurements(env.physics).uncovered_fraction, 3),
             "simulated_s": round(float(env.physics.data.time), 2)}
 
 

@@ -22,6 +22,7 @@ def test_behaviour_cloning_beats_random_actions(tmp_path):
     cloned = common.episode(env, policy, seed)
     uniform = common.episode(env, lambda observation: rng.uniform(-1.0, 1.0, env.action_space.shape), seed)
     env.close()
-    # the shaped reward, 0.5 exp(-distance / 5 cm) a step while the tip nears the band: the cloned
-    # policy brings the tip to the band and keeps it there, random actions seldom come near
-    assert cloned["return"] > 5.0 * uniform["return"], (cloned, uniform)
+    # the reward's potential, 0.5 exp(-distance / 5 cm) while the tip nears the band: the cloned
+    # policy brings the tip to the band and keeps it there (a return of the potential gained, less
+    # the episode's time cost of 1), random actions seldom come near
+    assert cloned["return"] > uniform["return"] + 0.2, (cloned, uniform)

@@ -48,7 +48,8 @@ def test_serial_trajectories_are_episodes_of_their_seeds(serial):
     joints = first.observation("tool_joints")
     assert joints.shape == (STEPS + 1, 9)
     assert np.abs(joints[-1] - joints[0]).max() > 1e-3
-    assert np.all((rewards >= 0.0) & (rewards <= 1.0))
+    low, high = viscera.tasks.load("clear_area").task.contract.step_bounds()  # no step of these succeeds
+    assert np.all((rewards >= low) & (rewards <= high))
 
 
 @pytest.mark.parametrize("backend, workers", [("threads", 2), ("threads", 3), ("processes", 2)])

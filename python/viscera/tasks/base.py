@@ -19,7 +19,10 @@ and `build`, the one factory, makes any task's environment (viscera.tasks.load).
 - TOOLS, its tool set (scene.Tool: name, kind, trocar), and CRITERION, its success in words;
 - `condition(physics)`, the instantaneous goal; `success(physics)` is True once it has held for
   the last HOLD_S seconds of simulated time, and the episode then ends (discount 0);
-- `task_observations(physics)` and `get_reward(physics)` (shaped, in [0, 1]);
+- `task_observations(physics)` and `potential(physics)`, its progress towards the goal in [0, 1],
+  from which every task's reward is paid by one contract (viscera.tasks.reward: the potential's
+  change, a time cost and a success bonus, so that success is the return's optimum; `reward=
+  "sparse"` pays success alone);
 - optionally its own keyword options (its __init__'s besides BowelTask's: clear_area's
   end_on_success), POLICY, `draw(physics)`, drawing the task's own episode details after the
   bowel has settled (by default the target is placed, when the task has one), and
@@ -50,6 +53,7 @@ from dm_control.suite import base
 
 import viscera
 from viscera.checks import checked_integer
+from viscera.tasks import reward as reward_module  # where a parameter is called reward
 from viscera.tasks import scene
 from viscera.tasks import scene as scene_module  # where a parameter is called scene
 
@@ -106,9 +110,13 @@ class Physics(dm_mujoco.Physics):
 
     def axis_point_at(self, abscissa: float) -> np.ndarray:
         """The axis point (m) at `abscissa` m along the rest axis."""
+        return self.axis_points_at(np.array([abscissa]))[0]
+
+    def axis_points_at(self, abscissae: np.ndarray) -> np.ndarray:
+        """The axis points (m, (k, 3)) at `abscissae` (m along the rest axis, (k,)), in one call."""
         gut = self.intestine()
-        s = np.array([np.clip(abscissa / gut.rest_length, 0.0, 1.0)])
-        return viscera.spline_points(gut.positions(self.data.ptr), s)[0]
+        s = np.clip(np.asarray(abscissae, dtype=float) / gut.rest_length, 0.0, 1.0)
+        return viscera.spline_points(gut.positions(self.data.ptr), s)
 
     # -- the target: a patch of the posterior wall (site target_area)
     def target(self) -> np.ndarray:
@@ -244,6 +252,13 @@ class Measurements:
     def __init__(self, physics: Physics):
         self.physics = physics
         self.data, self.time = physics.data.ptr, float(physics.data.time)
+        self._memo: dict = {}
+
+    def memo(self, key: str, measure: Callable):
+        """A task's own measurement of this state: `measure()` the first time `key` is asked for."""
+        if key not in self._memo:
+            self._memo[key] = measure()
+        return self._memo[key]
 
     def of(self, physics: Physics) -> bool:
         """Whether this is the record of `physics` as it is now (its MjData, at its time)."""
@@ -314,6 +329,12 @@ class BowelTask(base.Task):
         self._measured: Measurements | None = None  # the last state's (measurements)
         self.control_timestep_s = 0.02  # s, the environment's (build sets it)
         self._tool_speeds: np.ndarray | None = None
+        self.reward_kind = reward_module.DEFAULT_KIND  # "dense" or "sparse" (build sets it)
+        self.contract = reward_module.Contract.of(self.TIME_LIMIT_S, self.TIME_LIMIT_S, self.control_timestep_s)
+        self._potential: float | None = None  # the last state's, None before an episode's first step
+        self._steps = 0                        # control steps taken this episode
+        self._rewarded_success = False         # the success bonus is paid once an episode
+        self._reward: float | None = None      # the last step's (after_step computes it)
 
     def reseed(self, seed: int | None) -> None:
         """Draw the next episodes as a task built with `seed` would (numpy's RandomState(seed)):
@@ -384,6 +405,7 @@ class BowelTask(base.Task):
         self.episode = scene.draw_episode(self.random, scene=self.scene.name) if self.randomize else None
         self._held_since = None
         self._failed = False
+        self._potential, self._steps, self._rewarded_success, self._reward = None, 0, False, None
         self.prepare(physics)
         super().initialize_episode(physics)  # dm_control's: calls after_step
 
@@ -460,9 +482,14 @@ class BowelTask(base.Task):
         """An episode that can no longer succeed (default: never)."""
         return False
 
+    def potential(self, physics: Physics) -> float:
+        """The task's progress towards its goal, in [0, 1] (the dense reward is its change; default:
+        1 while the condition holds, else 0)."""
+        return float(self.condition(physics))
+
     def after_step(self, physics: Physics) -> None:
         """After every control step and at every reset: this state's measurements, then whether
-        the condition holds (and since when) and whether the episode failed."""
+        the condition holds (and since when) and whether the episode failed, then the step's reward."""
         self._measured = Measurements(physics)
         if self.condition(physics):
             if self._held_since is None:
@@ -470,6 +497,32 @@ class BowelTask(base.Task):
         else:
             self._held_since = None
         self._failed = self._failed or self.failure(physics)
+        self._reward = self._step_reward(physics)
+
+    def _step_reward(self, physics: Physics) -> float | None:
+        """The reward of the control step that led to this state (viscera.tasks.reward), or None
+        at a reset, where the potential of the start is measured."""
+        dense = self.reward_kind == "dense"
+        if self._potential is None:  # the reset's after_step
+            self._potential = self.potential(physics) if dense else 0.0
+            return None
+        self._steps += 1
+        succeeded = not self._rewarded_success and self.success(physics)
+        self._rewarded_success = self._rewarded_success or succeeded
+        if not dense:
+            return 1.0 if succeeded else 0.0
+        before = self._potential
+        if succeeded:
+            self._potential = self.contract.potential[1]
+            return self.contract.success(before)
+        self._potential = min(max(self.potential(physics), 0.0), 1.0)
+        if self._failed:
+            return self.contract.failure(before, self._potential, self._steps)
+        return self.contract.step(before, self._potential)
+
+    def get_reward(self, physics: Physics) -> float:
+        """The last control step's reward (after_step computes it, once a step: viscera.tasks.reward)."""
+        return 0.0 if self._reward is None else self._reward
 
     def success(self, physics: Physics) -> bool:
         """The goal has held for the last HOLD_S s of simulated time."""
@@ -530,7 +583,7 @@ class Environment(control.Environment):
         return float(self._step_limit) * self.control_timestep()
 
 
-BUILD_OPTIONS = ("time_limit", "control_timestep", "axis_samples", "randomize", "scene")  # every task's, besides its own
+BUILD_OPTIONS = ("time_limit", "control_timestep", "axis_samples", "randomize", "scene", "reward")  # every task's, besides its own
 
 
 def own_options(task_class: type[BowelTask]) -> tuple[str, ...]:
@@ -541,16 +594,20 @@ def own_options(task_class: type[BowelTask]) -> tuple[str, ...]:
 
 def build(task_class: type[BowelTask], seed: int | None = None, time_limit: float | None = None,
           control_timestep: float = 0.02, axis_samples: int | None = None, randomize: bool = True,
-          scene: str = scene_module.DEFAULT_SCENE, **options) -> Environment:
+          scene: str = scene_module.DEFAULT_SCENE, reward: str = reward_module.DEFAULT_KIND,
+          **options) -> Environment:
     """The environment of any task class, the one factory (viscera.tasks.load): its episodes drawn
     from numpy's RandomState(seed); time_limit in s (default the task's TIME_LIMIT_S),
     control_timestep in s; axis_samples, the intestine axis points observed (None: the scene's,
     3 cm apart: 100 on the abdomen's 3 m, 170 on the anatomical 5.06 m); randomize False:
     every episode the shipped scene's bowel, tissue, tilt and target; scene, the cavity
-    (viscera.tasks.scene.SCENES: "abdomen", the default, or "anatomical"). `options` are the task's
+    (viscera.tasks.scene.SCENES: "abdomen", the default, or "anatomical"); reward, "dense" (the
+    default: the potential's change, a time cost and a success bonus) or "sparse" (1 on success,
+    else 0), viscera.tasks.reward. `options` are the task's
     own (its __init__'s keywords besides BowelTask's: clear_area's end_on_success). The physics
     is built from the shipped scene with the task's tools; every reset rebuilds it for its episode."""
     own = own_options(task_class)
+    reward = reward_module.checked_kind(reward)
     for name in options:
         if name not in own:
             raise TypeError(f"load() got an unexpected keyword argument {name!r}")
@@ -559,9 +616,12 @@ def build(task_class: type[BowelTask], seed: int | None = None, time_limit: floa
     task = task_class(random=np.random.RandomState(seed), axis_samples=checked_axis_samples(axis_samples),
                       randomize=randomize, scene=scene, **options)
     task.control_timestep_s = control_timestep
+    time_limit = task.TIME_LIMIT_S if time_limit is None else time_limit
+    task.reward_kind = reward
     physics = Physics.from_xml_string(task.scene_xml(None))
-    return Environment(physics, task, time_limit=task.TIME_LIMIT_S if time_limit is None else time_limit,
-                       control_timestep=control_timestep)
+    env = Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
+    task.contract = reward_module.Contract.of(task.TIME_LIMIT_S, time_limit, control_timestep)
+    return env
 
 
 def loader(task_class: type[BowelTask]) -> Callable[..., Environment]:

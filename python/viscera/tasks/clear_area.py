@@ -11,7 +11,10 @@ and the retractor (left trocar).
 - Observations: tool_joints, tool_forces (N, the force the intestine exerts on each tool),
   grasper_holding, intestine_axis (axis_samples points, m), target (centre m (3), half sizes m
   (2)), target_coverage (10 x 10 grid: 1 where the tube lies over the point).
-- Reward: the uncovered fraction of the target, in [0, 1].
+- Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success.
+  The potential: 1 while the condition holds, else 0.8 x the uncovered fraction over 80 % (at
+  most 1) plus 0.2 x the share of the other three conditions that hold (jaws open, tools clear,
+  tools still) once the target is 80 % uncovered.
 - Success (`success(physics)`): for the last 2 s of simulated time, at least 80 % of the target
   uncovered, the grasper's jaws open and holding nothing, both tools clear of the target (outside
   it grown by 1 cm, or 5 cm above the wall) and still (every tool joint under 0.3 rad/s or
@@ -47,15 +50,23 @@ class ClearArea(base.BowelTask):
         super().__init__(random=random, axis_samples=axis_samples, randomize=randomize, scene=scene)
         self.end_on_success = end_on_success
 
+    def tools_done(self, physics: Physics) -> tuple[bool, bool, bool]:
+        """The success's conditions on the tools: jaws open, tools clear of the target, tools still."""
+        return self.measurements(physics).memo(
+            "tools_done", lambda: (physics.jaws_open(), physics.tools_clear_of_target(), physics.tools_still()))
+
     def condition(self, physics: Physics) -> bool:
-        return (self.measurements(physics).uncovered_fraction >= UNCOVERED and physics.jaws_open()
-                and physics.tools_clear_of_target() and physics.tools_still())
+        return self.measurements(physics).uncovered_fraction >= UNCOVERED and all(self.tools_done(physics))
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy()}
 
-    def get_reward(self, physics: Physics) -> float:
-        return self.measurements(physics).uncovered_fraction
+    def potential(self, physics: Physics) -> float:
+        uncovered = self.measurements(physics).uncovered_fraction
+        if uncovered < UNCOVERED:
+            return 0.8 * uncovered / UNCOVERED
+        done = self.tools_done(physics)
+        return 1.0 if all(done) else 0.8 + 0.2 * sum(done) / 3.0
 
     def get_termination(self, physics: Physics):
         return super().get_termination(physics) if self.end_on_success else None

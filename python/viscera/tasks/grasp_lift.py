@@ -11,7 +11,8 @@ The first move of most bowel manipulation: take hold of the loop the surgeon wan
 - Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, band (the
   band's 5 axis points, m, (5, 3) flattened, from one end to the other), held_abscissa (the held
   point, m along the rest axis; -1 when not holding), band_abscissa (its from and to, m).
-- Reward: 1 while the condition holds, else a shaped part: 0.5 for the tip's nearness to the band
+- Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success.
+  The potential: 1 while the condition holds, else 0.5 for the tip's nearness to the band
   (exp(-distance / 5 cm)) plus 0.5 x the held band's height over 5 cm while holding it.
 - Success: the grasper holds a point of the band (within 1 cm of it) at least 5 cm above the
   posterior wall, for 1 s without slipping (a slip lets go: the clock starts again). The episode
@@ -20,6 +21,8 @@ The first move of most bowel manipulation: take hold of the loop the surgeon wan
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -66,14 +69,18 @@ class GraspLift(base.BowelTask):
         return physics.axis_point_at(0.5 * (self.band[0] + self.band[1]))
 
     def band_points(self, physics: Physics) -> np.ndarray:
-        return np.stack([physics.axis_point_at(s) for s in np.linspace(*self.band, BAND_POINTS)])
+        """The band's BAND_POINTS axis points (m, (5, 3)), from one end to the other."""
+        return self.measurements(physics).memo(
+            "band_points", lambda: physics.axis_points_at(np.linspace(*self.band, BAND_POINTS)))
 
     def held_band_height(self, physics: Physics) -> float | None:
         """Height (m) above the posterior wall of the held point if a grasper holds the band, else None."""
-        for grasp in physics.intestine().grasps(physics.data.ptr):
-            if grasp.holding and self.band[0] - SLACK_M <= grasp.abscissa <= self.band[1] + SLACK_M:
-                return float(physics.axis_point_at(grasp.abscissa)[2])
-        return None
+        def measure():
+            for grasp in physics.intestine().grasps(physics.data.ptr):
+                if grasp.holding and self.band[0] - SLACK_M <= grasp.abscissa <= self.band[1] + SLACK_M:
+                    return float(physics.axis_point_at(grasp.abscissa)[2])
+            return None
+        return self.measurements(physics).memo("held_band_height", measure)
 
     def condition(self, physics: Physics) -> bool:
         height = self.held_band_height(physics)
@@ -83,11 +90,11 @@ class GraspLift(base.BowelTask):
         return {"band": self.band_points(physics).ravel(), "held_abscissa": physics.held_abscissae(),
                 "band_abscissa": np.array(self.band)}
 
-    def get_reward(self, physics: Physics) -> float:
+    def potential(self, physics: Physics) -> float:
         if self.condition(physics):
             return 1.0
-        tip = physics.working_point("grasper")
-        near = float(np.exp(-np.min(np.linalg.norm(self.band_points(physics) - tip, axis=1)) / 0.05))
+        offsets = self.band_points(physics) - physics.working_point("grasper")
+        near = math.exp(-math.sqrt(float((offsets * offsets).sum(axis=1).min())) / 0.05)
         height = self.held_band_height(physics)
         return 0.5 * near + (0.5 * min(1.0, max(0.0, height) / LIFT_M) if height is not None else 0.0)
 

@@ -9,7 +9,9 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
 - Actions: the tools' position actuators, in their control ranges (rad, m).
 - Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, target
   (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), grasper_tip (m).
-- Reward: 0.5 x the uncovered fraction + 0.5 x exp(-tip distance to the target centre / 2 cm).
+- Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success.
+  The potential: 1 while the condition holds, else 0.5 x the uncovered fraction + 0.5 x
+  exp(-tip distance to the target centre / 2 cm).
 - Success: for 0.5 s, the grasper's tip within 1 cm of the target's centre, the centre uncovered
   (no tube over it: every tube axis farther than its radius, horizontally, as the coverage grid
   counts), and the grasper pushing on the bowel with at most 0.5 N (it reaches the wall the
@@ -21,6 +23,8 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -63,9 +67,11 @@ class RetractReach(base.BowelTask):
         return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy(),
                 "grasper_tip": physics.working_point("grasper")}
 
-    def get_reward(self, physics: Physics) -> float:
+    def potential(self, physics: Physics) -> float:
+        if self.condition(physics):
+            return 1.0
         uncovered = self.measurements(physics).uncovered_fraction
-        return 0.5 * uncovered + 0.5 * float(np.exp(-self.tip_distance(physics) / 0.02))
+        return 0.5 * uncovered + 0.5 * math.exp(-self.tip_distance(physics) / 0.02)
 
 
 load = base.loader(RetractReach)

@@ -13,7 +13,10 @@ trocar, in place of the retractor).
   start_mark (its axis point, m (3), then its abscissa, m), intestine_length (m), held_abscissa
   (per grasper: m along the rest axis, -1 when not holding), advance (m: the farthest held point
   from the mark since the run began).
-- Reward: the advance over 30 cm, in [0, 1].
+- Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success
+  and a charge on a drop. The potential: before the run begins, 0.1 x the nearest grasper tip's
+  nearness to the mark (exp(-distance / 5 cm)); once it has begun, 0.1 + 0.9 x the advance over
+  30 cm (at most 1).
 - Run: it begins when a jaw takes the bowel within 3 cm of the mark. A later hold counts when it
   takes the bowel within 10 cm (along it) of a hold that counts: hand over hand; a jaw closing on
   another loop does not count. From the start on, at least one counted hold at every step, or the
@@ -24,6 +27,8 @@ trocar, in place of the retractor).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -104,13 +109,21 @@ class RunTheBowel(base.BowelTask):
     def failure(self, physics: Physics) -> bool:
         return self.dropped
 
+    def mark_point(self, physics: Physics) -> np.ndarray:
+        """The start mark's axis point (m)."""
+        return self.measurements(physics).memo("mark_point", lambda: physics.axis_point_at(self.mark))
+
     def task_observations(self, physics: Physics) -> dict:
-        return {"start_mark": np.append(physics.axis_point_at(self.mark), self.mark),
+        return {"start_mark": np.append(self.mark_point(physics), self.mark),
                 "intestine_length": np.array([physics.intestine().rest_length]),
                 "held_abscissa": physics.held_abscissae(), "advance": np.array([self.advance])}
 
-    def get_reward(self, physics: Physics) -> float:
-        return min(1.0, self.advance / ADVANCE_M) if not self.dropped else 0.0
+    def potential(self, physics: Physics) -> float:
+        if self.started:
+            return 0.1 + 0.9 * min(1.0, self.advance / ADVANCE_M)
+        mark = self.mark_point(physics)
+        nearest = min(float(np.sqrt(((physics.working_point(tool.name) - mark) ** 2).sum())) for tool in self.TOOLS)
+        return 0.1 * math.exp(-nearest / 0.05)
 
 
 load = base.loader(RunTheBowel)
