@@ -4,10 +4,11 @@
     python -m viscera view SCENE.xml    # MuJoCo's interactive viewer, the intestine drawn
     python -m viscera teleop TASK [--seed S] [--device keyboard] [--record FILE]   # a person at the tools
     python -m viscera play TASK [--seed S] [--policy scripted]     # a whole episode: did it succeed? (exit 0 or 1)
+    python -m viscera play TASK --policy FILE.npz                  # ... played by a policy file (viscera.policy_file)
     python -m viscera play TASK --scene anatomical                 # ... in the anatomical abdomen (teleop, record too)
     python -m viscera record TASK --seed S --policy scripted --out FILE             # an episode without a person
     python -m viscera replay FILE [--json OUT] [--viewer meshcat] [--trajectory OUT.json]
-    python -m viscera dataset TASK --format lerobot|minari --out PATH [--policy scripted] [--seeds A:B]
+    python -m viscera dataset TASK --format lerobot|minari --out PATH [--policy scripted|FILE.npz] [--seeds A:B]
         [--episodes N] [--pixels] [--workers K]          # demonstrations as a LeRobot or Minari dataset
 """
 
@@ -230,17 +231,39 @@ def ticks(count: int) -> str:
     return f"{count} tick{'s' * (count != 1)}"
 
 
+def load_policy(path: str, task: str, scene: str):
+    """The policy file at `path` for `task` in `scene` (viscera.policy_file), or one line saying
+    what is wrong with it (status 2), before any environment is built."""
+    from viscera import policy_file
+    try:
+        learned = policy_file.load(path)
+        learned.check_task(task, scene)
+    except policy_file.PolicyFileError as error:
+        raise UserError(f"--policy {error}", status=2) from None
+    return learned
+
+
 def play(task: str, seed: int, policy: str, time_limit_s: float | None, quiet: bool,
          out: str | None = None, scene: str = "abdomen") -> tuple[bool, dict]:
     """One whole episode of `task` (to its success, failure or time limit) played by a policy kind
-    (recording.POLICIES), with `out` saved for replay; prints its score and the verdict last.
-    Returns the success and the score."""
-    from viscera import recording
+    (recording.POLICIES) or a policy file (its path), with `out` saved for replay; prints its
+    score and the verdict last. A policy file is checked (the file, then the environment it
+    acts in) before the episode starts. Returns the success and the score."""
+    from viscera import policy_file, recording
+    if policy not in recording.POLICIES:
+        policy = load_policy(policy, task, scene)
+        if out and os.path.exists(out) and os.path.samefile(out, policy.path):
+            raise UserError(f"--out {out}: that is the policy file (--policy); the recording would overwrite it",
+                            status=2)
     on_step, score = _trace_and_score(task)
-    made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step,
-                            scene=scene)
+    try:
+        made = recording.record(task, seed, policy, time_limit_s=time_limit_s, progress=not quiet, on_step=on_step,
+                                scene=scene)
+    except policy_file.PolicyFileError as error:  # the environment is not the one it was trained on
+        raise UserError(f"--policy {error}", status=2) from None
     where = "" if scene == "abdomen" else f", {scene} scene"
-    episode = f"{task}{where}, seed {seed}, {policy} policy, {ticks(made.steps)} of {made.control_timestep_s * 1e3:g} ms"
+    episode = (f"{task}{where}, seed {seed}, {made.policy} policy, {ticks(made.steps)} of "
+               f"{made.control_timestep_s * 1e3:g} ms")
     if out:
         made.save(out)
         print(f"recording        {out} ({episode})")
@@ -357,9 +380,11 @@ def policy_arguments(parser: argparse.ArgumentParser, required: bool) -> None:
     """The policy that plays a task's episode, and the output's options (play, record)."""
     from viscera.recording import POLICIES
     default = "" if required else ", the default"
-    parser.add_argument("--policy", choices=POLICIES, required=required, default=None if required else "scripted",
+    parser.add_argument("--policy", choices=cli.PolicyChoices(POLICIES), required=required, metavar="POLICY",
+                        default=None if required else "scripted",
                         help=f"scripted (the task's script{default}), random (uniform actions, numpy's "
-                        "default_rng(seed)) or idle (the tools held withdrawn)")
+                        "default_rng(seed)), idle (the tools held withdrawn), or a policy file (a path ending "
+                        "in .npz: a learned policy, docs/learning.md)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -367,7 +392,8 @@ def dataset(args: argparse.Namespace) -> dict:
     """The dataset command: every argument checked before the first episode, then a summary line."""
     policy, recordings = args.policy[0], None
     choices = ("scripted", "random", "idle", "recordings")
-    if policy not in choices:
+    from viscera.policy_file import is_path
+    if policy not in choices and not is_path(policy):
         raise UserError(f"--policy {policy!r}: must be one of {', '.join(choices)}", status=2)
     if policy == "recordings":
         if len(args.policy) != 2:
@@ -452,14 +478,15 @@ def build_parser() -> argparse.ArgumentParser:
     teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
     play_parser = commands.add_parser(
         "play", help="play one whole episode of a task with a policy and say whether it succeeded",
-        description="Play one whole episode of a task (its own time limit) with its scripted policy, or random "
-        "or idle actions, and print the score and the verdict. The exit status is 0 if the episode "
+        description="Play one whole episode of a task (its own time limit) with its scripted policy, random "
+        "or idle actions, or a policy file, and print the score and the verdict. The exit status is 0 if the episode "
         "succeeded, 1 if not (2: a mistake in the command).")
     task_arguments(play_parser, seed_required=False)
     policy_arguments(play_parser, required=False)
     record_parser = commands.add_parser(
         "record", help="record an episode of a task played by a policy (no person), with its score",
-        description="Run one episode of a task with a scripted, random or idle policy, save it for replay, and "
+        description="Run one episode of a task with a scripted, random or idle policy or a policy file, save it "
+        "for replay (the policy file is not needed to replay it), and "
         "print its score, the final state's SHA-256 and the verdict.")
     task_arguments(record_parser, seed_required=True)
     record_parser.add_argument("--out", type=cli.output_file(".npz"), required=True, help="the recording (.npz)")
@@ -472,8 +499,8 @@ def build_parser() -> argparse.ArgumentParser:
     from viscera.task_registry import TASKS
     dataset_parser.add_argument("task", choices=tuple(TASKS), metavar="TASK", help=f"one of {', '.join(TASKS)}")
     dataset_parser.add_argument("--policy", nargs="+", default=["scripted"], metavar="POLICY",
-                                help="scripted (the default), random, idle, or 'recordings DIR': the recordings "
-                                "(*.npz) of a folder, replayed")
+                                help="scripted (the default), random, idle, 'recordings DIR': the recordings "
+                                "(*.npz) of a folder, replayed, or a policy file (a path ending in .npz)")
     dataset_parser.add_argument("--episodes", type=cli.positive_int,
                                 help="how many episodes (default: one per seed, or per recording)")
     dataset_parser.add_argument("--seeds", type=cli.seed_range,

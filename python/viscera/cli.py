@@ -273,6 +273,16 @@ def port(text: str) -> int:
     return value
 
 
+class PolicyChoices(tuple):
+    """argparse choices for --policy: the policy kinds it lists, or a policy file's path (one
+    ending in .npz or holding a path separator: viscera.policy_file.is_path), checked when it
+    is loaded. Anything else gets argparse's own "invalid choice" line, naming the kinds."""
+
+    def __contains__(self, value) -> bool:
+        from viscera.policy_file import is_path
+        return tuple.__contains__(self, value) or (isinstance(value, str) and is_path(value))
+
+
 def input_file(text: str) -> str:
     """argparse type: a file that exists (its contents are checked by whoever reads it)."""
     if not os.path.exists(text):

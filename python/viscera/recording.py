@@ -2,6 +2,7 @@
 bit for bit.
 
     recording = record("clear_area", seed=3, policy="scripted")   # or a person's: viscera.teleop
+    recording = record("clear_area", seed=3, policy="bc.npz")     # or a policy file's (viscera.policy_file)
     recording.save("episode.npz")
     recording = load("episode.npz")
     result = replay(recording)          # result.final_state_sha256 == recording.final_state_sha256
@@ -10,7 +11,8 @@ A recording is one `.npz` file (NumPy's zip; written to a temporary name, then r
 interrupted write never leaves a half file under the name) with two arrays:
 - `meta`: UTF-8 JSON: `format` ("viscera-recording"), `version` (1), `task`, `scene` (the
   cavity, viscera.tasks.scene.SCENES; a file without it is the box abdomen's), `seed`, `policy`
-  ("scripted", "random", "idle" or "person:<device>"), `policy_seed` (random only),
+  ("scripted", "random", "idle", "person:<device>" or, for a policy file,
+  "file:<file name>#<first 12 hex digits of the file's SHA-256>"), `policy_seed` (random only),
   `control_timestep_s`, `time_limit_s`, `steps`, `success`, `final_state_sha256`, the
   `viscera` and `mujoco` versions, `created` (UTC);
 - `actions`: float64 (steps, actuators), the dm_env action of every control tick (rad, m).
@@ -200,9 +202,13 @@ def action_width(task: str, scene: str = "abdomen") -> int:
 
 
 def load_task(task: str, seed: int | None, control_timestep_s: float | None = None,
-              time_limit_s: float | None = None, scene: str = "abdomen"):
+              time_limit_s: float | None = None, scene: str = "abdomen", pixels: dict | None = None):
+    """The task's environment; `pixels` ({"height", "width", "camera"}, a policy file's) adds the
+    camera's images to its observations (the physics is the same: a replay needs none)."""
     import viscera.tasks
     kwargs = {"scene": scene}
+    if pixels is not None:
+        kwargs.update(pixels=True, height=pixels["height"], width=pixels["width"], camera=pixels["camera"])
     if control_timestep_s is not None:
         kwargs["control_timestep"] = control_timestep_s
     if time_limit_s is not None:
@@ -232,11 +238,18 @@ class Recorder:
         return recording
 
 
-def policy_for(env, policy: str, seed: int | None) -> Callable:
+def policy_for(env, policy, seed: int | None) -> Callable:
     """The callable (time step -> action) of a policy kind: the task's script, uniform random
     actions within the action spec (numpy's default_rng(seed)), or idle (the tools held where
-    the episode starts them: withdrawn, jaws open)."""
+    the episode starts them: withdrawn, jaws open); or of a policy file (its path, or a
+    viscera.policy_file.LearnedPolicy), checked against `env` (a PolicyFileError if it cannot act
+    in it)."""
     import viscera.tasks
+    from viscera import policy_file
+    if isinstance(policy, policy_file.LearnedPolicy) or (policy not in POLICIES and policy_file.is_path(policy)):
+        learned = policy if isinstance(policy, policy_file.LearnedPolicy) else policy_file.load(policy)
+        learned.check_env(env)
+        return learned
     if policy == "scripted":
         return viscera.tasks.scripted_policy(env)
     spec = env.action_spec()
@@ -249,19 +262,31 @@ def policy_for(env, policy: str, seed: int | None) -> Callable:
     raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
 
 
-def record(task: str, seed: int | None, policy: str = "scripted", time_limit_s: float | None = None,
+def record(task: str, seed: int | None, policy="scripted", time_limit_s: float | None = None,
            control_timestep_s: float | None = None, policy_seed: int | None = None, progress: bool = False,
            on_step: Callable | None = None, scene: str = "abdomen") -> Recording:
-    """Run one episode of `task` (seed `seed`, on `scene`) with a policy kind (POLICIES) and record
-    it. `on_step(env, time_step)` is called after the reset and after every step."""
-    if policy not in POLICIES:
+    """Run one episode of `task` (seed `seed`, on `scene`) with a policy kind (POLICIES) or a
+    policy file (its path, or a viscera.policy_file.LearnedPolicy) and record it. A policy file's
+    environment has its control period (unless `control_timestep_s` says another, refused) and
+    its pixels; the file is checked against the task, scene and environment before the reset (a
+    PolicyFileError). `on_step(env, time_step)` is called after the reset and after every step."""
+    from viscera import policy_file
+    learned = None
+    if isinstance(policy, policy_file.LearnedPolicy) or (policy not in POLICIES and policy_file.is_path(policy)):
+        learned = policy if isinstance(policy, policy_file.LearnedPolicy) else policy_file.load(policy)
+        learned.check_task(task, scene)
+        if control_timestep_s is None:
+            control_timestep_s = learned.control_timestep_s
+    elif policy not in POLICIES:
         raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
-    env = load_task(task, seed, control_timestep_s, time_limit_s, scene)
+    env = load_task(task, seed, control_timestep_s, time_limit_s, scene, learned.pixels if learned else None)
+    if learned is not None:
+        learned.check_env(env)  # before the first step: the observations and actions it was trained on
     time_step = env.reset()
     if policy == "random" and policy_seed is None:
         policy_seed = seed
-    act = policy_for(env, policy, policy_seed)
-    recorder = Recorder(task, seed, policy, env.control_timestep(),
+    act = learned if learned is not None else policy_for(env, policy, policy_seed)
+    recorder = Recorder(task, seed, learned.label if learned is not None else policy, env.control_timestep(),
                         time_limit_s if time_limit_s is not None else env.task.TIME_LIMIT_S, policy_seed, scene)
     _step_through(env, time_step, lambda step: np.asarray(act(step), dtype=np.float64), on_step,
                   _bar(progress, recorder.recording, task), recorder.append)

@@ -2,9 +2,12 @@
 
     python -m viscera dataset grasp_lift --policy scripted --seeds 0:50 --format lerobot --out data/grasp_lift
     viscera.datasets.write("grasp_lift", "data/grasp_lift", "minari", demonstrator="scripted", seeds=range(50))
+    viscera.datasets.write("grasp_lift", "data/bc", "minari", demonstrator="grasp_lift_bc.npz")  # a policy file
 
 Episodes come from a demonstrator (viscera.datasets.episodes.DEMONSTRATORS: the task's scripted
-policy, uniform random actions, idle tools) on the given task seeds, or from the recordings
+policy, uniform random actions, idle tools; or a policy file, viscera.policy_file, each worker
+loading it from its path and checking it is the file checked at the start) on the given task
+seeds, or from the recordings
 of people (`python -m viscera record` / `teleop` files, replayed action by action, each checked to
 end in the state it recorded). They run in
 worker processes and are written in seed (or file) order, so the dataset does not depend on
@@ -90,6 +93,8 @@ class Job:
     action_noise: float = 0.0           # episodes.run's
     final_state_sha256: str | None = None  # a recording's: its replay must end there
     source: str = ""                    # a recording's file name, for errors
+    policy_file: str | None = None      # a policy file's absolute path (demonstrator: its label)
+    policy_sha256: str | None = None    # ... and its SHA-256 when it was checked: a worker loads the same file
 
 
 def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, camera: str) -> list[Job]:
@@ -129,6 +134,46 @@ def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, cam
 
 
 _environments: dict = {}  # this process's environments, by their arguments
+_policies: dict = {}  # this process's policy files, by path and SHA-256
+
+
+def check_policy_file(path, task: str, scene: str, pixels: bool, size, camera: str):
+    """The policy file at `path` (viscera.policy_file), for `task` in `scene`, with the pixels it
+    reads among the dataset's (`pixels` at `size` from `camera`); else a DatasetError naming it."""
+    from viscera import policy_file
+
+    try:
+        learned = policy_file.load(path)
+        learned.check_task(task, scene)
+    except policy_file.PolicyFileError as error:
+        raise DatasetError("demonstrator", str(path), error.problem) from None
+    wanted = learned.pixels
+    if wanted is not None and not (pixels and tuple(size) == (wanted["height"], wanted["width"])
+                                   and camera == wanted["camera"]):
+        raise DatasetError("demonstrator", str(path), f"reads the {wanted['camera']} camera's "
+                           f"{wanted['height']}x{wanted['width']} RGB: collect with --pixels --size "
+                           f"{wanted['height']}x{wanted['width']}")
+    return learned
+
+
+def _policy(job: Job, env):
+    """The job's policy file, loaded once per process and checked to be the file checked at the
+    start and to act in `env`."""
+    from viscera import policy_file
+
+    key = (job.policy_file, job.policy_sha256)
+    learned = _policies.get(key)
+    if learned is None:
+        try:
+            learned = policy_file.load(job.policy_file)
+            if learned.sha256 != job.policy_sha256:
+                raise DatasetError("demonstrator", job.policy_file, "changed during the collection (its SHA-256 "
+                                   f"is now {learned.sha256[:12]}..., it was {job.policy_sha256[:12]}...)")
+            learned.check_env(env.dm_env)
+        except policy_file.PolicyFileError as error:
+            raise DatasetError("demonstrator", job.policy_file, error.problem) from None
+        _policies[key] = learned
+    return learned
 
 
 def _collect(job: Job) -> episodes.Episode:
@@ -137,7 +182,8 @@ def _collect(job: Job) -> episodes.Episode:
         from viscera.scale.gym_env import TaskEnv
 
         env = _environments[job.env_kwargs] = TaskEnv(**dict(job.env_kwargs))
-    episode = episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise)
+    policy = _policy(job, env) if job.policy_file is not None else None
+    episode = episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise, policy=policy)
     if job.final_state_sha256 is not None:
         from viscera import recording
 
@@ -227,7 +273,10 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
           progress: bool = False, action_noise: float = 0.0) -> dict:
     """Collect episodes of `task` and write them as a `format` dataset at `out` (a new path).
 
-    demonstrator: one of episodes.DEMONSTRATORS, on the task's `seeds` (on `scene`); or
+    demonstrator: one of episodes.DEMONSTRATORS, or a policy file's path (viscera.policy_file.is_path:
+    ending in .npz or holding a path separator; the environment gets its control period; a policy
+    reading pixels needs `pixels` at its size; the dataset's demonstrator is then "policy" and each
+    episode's the file's label, file:NAME#SHA256-PREFIX), on the task's `seeds` (on `scene`); or
     recordings: a folder of recording files, each replayed in its own scene, control period and
     time limit (all alike) and checked to end in its recorded state (demonstrator is then
     "recordings"). episodes_limit: at most that many (the first seeds or files). action_noise:
@@ -239,6 +288,7 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
 
     if task not in viscera.tasks.ALL:
         raise DatasetError("task", task, f"must be one of {', '.join(viscera.tasks.ALL)}")
+    learned = None  # a policy file's policy
     check_format(format)
     out = check_out(out)
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -254,8 +304,12 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         demonstrator = "recordings"
         jobs = recording_jobs(task, recordings, pixels, size, camera)
     else:
+        from viscera.policy_file import is_path
+        if demonstrator not in episodes.DEMONSTRATORS and not is_path(demonstrator):
+            raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}"
+                               ", or a policy file's path")
         if demonstrator not in episodes.DEMONSTRATORS:
-            raise DatasetError("demonstrator", demonstrator, f"must be one of {', '.join(episodes.DEMONSTRATORS)}")
+            learned = check_policy_file(demonstrator, task, scene, pixels, size, camera)
         from viscera.scale.worker import checked_seeds
         if episodes_limit is not None:
             seeds = seeds[:episodes_limit]  # before the seeds are listed: a range may be 2^32 long
@@ -263,8 +317,23 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
             seeds = checked_seeds(seeds)
         except ValueError as error:
             raise DatasetError("seeds", seeds, str(error)) from None
-        kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera).items()))
-        jobs = [Job(kwargs, int(seed), demonstrator, None, float(action_noise)) for seed in seeds]
+        kwargs = tuple(sorted(episodes.env_kwargs(task, scene, pixels, size, camera, learned.control_timestep_s
+                                                  if learned is not None else None).items()))
+        if learned is not None:
+            from viscera import policy_file
+            from viscera.scale.gym_env import TaskEnv
+            env = TaskEnv(**dict(kwargs))  # checked against the file before the first episode, not in a worker
+            try:
+                learned.check_env(env.dm_env)
+            except policy_file.PolicyFileError as error:
+                raise DatasetError("demonstrator", str(demonstrator), error.problem) from None
+            finally:
+                env.close()
+            path, demonstrator = str(pathlib.Path(learned.path).resolve()), "policy"
+            jobs = [Job(kwargs, int(seed), learned.label, None, float(action_noise), policy_file=path,
+                        policy_sha256=learned.sha256) for seed in seeds]
+        else:
+            jobs = [Job(kwargs, int(seed), demonstrator, None, float(action_noise)) for seed in seeds]
     jobs = jobs[:episodes_limit]
     if not jobs:
         raise DatasetError("seeds", seeds, "no episode to collect")
@@ -286,7 +355,7 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
         from viscera.scale.gym_env import TaskEnv
         env = TaskEnv(**dict(jobs[0].env_kwargs))  # the spaces the writers describe
         writer = writer_class(staging / "dataset", env, spec, task, demonstrator,
-                              description=f"viscera {task}: {demonstrator} demonstrations")
+                              description=f"viscera {task}: {learned.label if learned else demonstrator} demonstrations")
         with _CtrlC(raise_now=workers == 1) as ctrl_c, contextlib.closing(_in_order(jobs, workers, ctrl_c)) as collected:
             for episode in collected:
                 ctrl_c.check()
@@ -319,6 +388,8 @@ def write(task: str, out: str | os.PathLike, format: str, demonstrator: str = "s
             env.close()
         _close_environments()
     wall_s = time.perf_counter() - start
+    if learned is not None:
+        written["policy"] = learned.label
     return dict(written, task=task, format=format, demonstrator=demonstrator, out=str(out), pixels=bool(pixels),
                 workers=workers, wall_s=wall_s,
                 episodes_per_hour_per_worker=written["episodes"] / (wall_s / 3600.0) / workers)

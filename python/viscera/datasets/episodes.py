@@ -16,7 +16,7 @@ import numpy as np
 from viscera.checks import finite_array
 from viscera.scale.gym_env import IMAGE_KEYS, TaskEnv
 
-DEMONSTRATORS = ("scripted", "random", "idle")   # with "recordings": the episodes of recording files
+DEMONSTRATORS = ("scripted", "random", "idle")   # with "recordings": the episodes of recording files; "policy": a policy file's
 PRIVILEGED = {  # name -> what it is (units)
     "control_points": "the first intestine's spline control points (m, world), (n, 3)",
     "tool_forces": "each tool's force and torque from the tissue (N, N m), as the task's tool_forces",
@@ -30,7 +30,7 @@ class Episode:
     task: str
     scene: str
     seed: int                       # the task's seed: it fixes the episode's bowel, tissue, tilt and target
-    demonstrator: str               # scripted, random, idle, or person:<device> / a recording's policy
+    demonstrator: str               # scripted, random, idle, or person:<device> / a recording's policy, file:NAME#SHA
     fps: int                        # control ticks per second
     state: np.ndarray               # (T + 1, D) float64, gymnasium's flat observation
     state_names: list[str]          # D names, "key[i]" (TaskEnv.observation_layout)
@@ -95,10 +95,12 @@ NOISE_CORRELATION_S = 0.5  # s, the injected noise's correlation time: slower th
 
 
 def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None = None,
-        action_noise: float = 0.0) -> Episode:
+        action_noise: float = 0.0, policy=None) -> Episode:
     """One episode of `env` from the task's `seed`, each action from `demonstrator` (DEMONSTRATORS;
-    random draws from the seed) or, given `actions` (a recording's dm_env actions), those in turn
-    until they run out (the episode is then truncated there).
+    random draws from the seed), or from `policy` (a callable time step -> dm_env action, e.g. a
+    policy file's, checked against `env`; `demonstrator` is then its name) or, given `actions` (a
+    recording's dm_env actions), those in turn until they run out (the episode is then truncated
+    there).
 
     action_noise: the standard deviation (in normalised action units) of noise added to every
     action taken, an Ornstein-Uhlenbeck process of NOISE_CORRELATION_S drawn from the seed, while
@@ -108,7 +110,8 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
 
     dm_env = env.dm_env
     observation, info = env.reset(seed=seed)
-    act = None if actions is not None else recording.policy_for(dm_env, demonstrator, seed)
+    act = None if actions is not None else policy if policy is not None else \
+        recording.policy_for(dm_env, demonstrator, seed)
     states, images = [], {k: [] for k in IMAGE_KEYS} if isinstance(observation, dict) else {}
     moves, labels, rewards, terminated, truncated = [], [], [], [], []
     noise_rng = np.random.default_rng([int(seed), 0x5EED])
