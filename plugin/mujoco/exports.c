@@ -50,6 +50,24 @@ VSC_EXPORT int viscera_spline_basis(int n, int count, const double* s, int* firs
   return 0;
 }
 
+/// Points of an n-point spline (control points q, m, n x 3, row-major) at
+/// `count` abscissae s (in [0, 1]), into out (m, count x 3): each the four
+/// basis terms summed in order, ((w0 q0 + w1 q1) + w2 q2) + w3 q3, the same
+/// bits as that sum in numpy. Returns 0, or -1 if n < 4.
+VSC_EXPORT int viscera_spline_points(int n, const double* q, int count, const double* s, double* out) {
+  if (n < 4) return -1;
+  for (int i = 0; i < count; ++i) {
+    vsc_basis b = vsc_spline_basis(n, s[i]);
+    const double* p = q + 3 * b.first;
+    for (int c = 0; c < 3; ++c) {
+      double sum = b.weight[0] * p[c] + b.weight[1] * p[3 + c];
+      sum += b.weight[2] * p[6 + c];
+      out[3 * i + c] = sum + b.weight[3] * p[9 + c];
+    }
+  }
+  return 0;
+}
+
 // The config of plugin instance `instance` if it is a viscera.intestine
 // (returns 0; the caller frees it), else -1.
 static int read_intestine(const mjModel* m, int instance, vsc_plugin_config* config) {

@@ -45,6 +45,9 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_spline_basis.restype = ctypes.c_int
             _ctypes_library.viscera_spline_basis.argtypes = [
                 ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+            _ctypes_library.viscera_spline_points.restype = ctypes.c_int
+            _ctypes_library.viscera_spline_points.argtypes = [
+                ctypes.c_int, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]
             _ctypes_library.viscera_intestine_info.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_info.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
             _ctypes_library.viscera_skin.restype = ctypes.c_int

@@ -63,21 +63,27 @@ def allowed_values(key: str) -> tuple[str, ...]:
 def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarray:
     """Points of the Catmull-Rom axis at parametric abscissae s in [0, 1] (m, shape (k, 3)).
 
-    Uses the plugin's own basis (end closure included) through ctypes.
+    Evaluated by the plugin, with its own basis (end closure included), through ctypes: each point
+    the four basis terms summed in order, the same bits on every CPU (viscera.numerics).
     """
     q = np.ascontiguousarray(control_points, dtype=np.float64).reshape(-1, 3)
     s = np.ascontiguousarray(abscissae, dtype=np.float64).ravel()
-    first = np.empty(s.size, dtype=np.int32)
-    weight = np.empty((s.size, 4), dtype=np.float64)
     if q.shape[0] < 4:
         raise ValueError(f"a Catmull-Rom axis needs at least 4 control points, got {q.shape[0]}")
     if not np.isfinite(s).all():
         raise ValueError("abscissae must be finite")
-    _library.native().viscera_spline_basis(
-        q.shape[0], s.size, s.ctypes.data_as(ctypes.c_void_p), first.ctypes.data_as(ctypes.c_void_p),
-        weight.ctypes.data_as(ctypes.c_void_p))
-    window = q[first[:, None] + np.arange(4)[None, :]]  # (k, 4, 3)
-    return np.einsum("kj,kjc->kc", weight, window)
+    points = np.empty((s.size, 3))
+    _library.native().viscera_spline_points(q.shape[0], q.ctypes.data_as(ctypes.c_void_p), s.size,
+                                            s.ctypes.data_as(ctypes.c_void_p), points.ctypes.data_as(ctypes.c_void_p))
+    return points
+
+
+@functools.lru_cache(maxsize=16)
+def _uniform(count: int) -> np.ndarray:
+    """`count` parametric abscissae from 0 to 1 (read-only: shared between calls)."""
+    s = np.linspace(0.0, 1.0, count)
+    s.flags.writeable = False
+    return s
 
 
 def default_stiffnesses(length: float) -> tuple[float, float]:
@@ -248,7 +254,7 @@ class Intestine:
 
     def axis_points(self, data: mujoco.MjData, count: int = 1000) -> np.ndarray:
         """`count` points of the axis, uniform in parametric abscissa (m, shape (count, 3))."""
-        return spline_points(self.positions(data), np.linspace(0.0, 1.0, count))
+        return spline_points(self.positions(data), _uniform(count))
 
     def sphere_centres(self, data: mujoco.MjData) -> np.ndarray:
         """Collision sphere centres (m, shape (spheres, 3))."""

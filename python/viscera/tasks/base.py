@@ -43,6 +43,7 @@ from __future__ import annotations
 import collections
 import functools
 import inspect
+import math
 from collections.abc import Callable
 
 import mujoco
@@ -121,15 +122,20 @@ class Physics(dm_mujoco.Physics):
     # -- the target: a patch of the posterior wall (site target_area)
     def target(self) -> np.ndarray:
         """Centre (m, 3) then half sizes along x and y (m) of the target rectangle."""
-        return np.concatenate([self.named.data.site_xpos["target_area"],
-                               self.named.model.site_size["target_area"][:2]])
+        site = self.tool_index().target_site
+        return np.concatenate([self.data.site_xpos[site], self.model.site_size[site][:2]])
 
     def target_points(self) -> np.ndarray:
         """The GRID x GRID sampling points of the target rectangle (m, world frame)."""
-        centre, half = self.named.data.site_xpos["target_area"], self.named.model.site_size["target_area"][:2]
-        u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
-        x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
-        return np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
+        site = self.tool_index().target_site
+        centre, half = self.data.site_xpos[site], self.model.site_size[site][:2]
+        key = (centre.tobytes(), half.tobytes())
+        cached = getattr(self, "_target_points", None)
+        if cached is None or cached[0] != key:  # the target moves only between episodes
+            u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
+            x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
+            cached = self._target_points = key, np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
+        return cached[1].copy()
 
     def dense_axis(self) -> np.ndarray:
         """The axis at four points per collision sphere (m, (4 S, 3)): what coverage reads."""
@@ -171,20 +177,24 @@ class Physics(dm_mujoco.Physics):
         mujoco.mj_camlight(model, data)
 
     # -- the tools
+    def tool_index(self) -> "ToolIndex":
+        """Where the tools' names, actuators, joints, sensors and sites are in this model, found once
+        per model (a reset that rebuilds the physics gets a new one)."""
+        model = self.model.ptr
+        cached = getattr(self, "_tool_index", None)
+        if cached is None or cached.model is not model:
+            cached = self._tool_index = ToolIndex(self)
+        return cached
+
     def tools(self) -> tuple[str, ...]:
         """The scene's tools, by name, in the order of their actuators."""
-        names = []
-        for i in range(self.model.nu):
-            tool = self.model.id2name(i, "actuator").rsplit("_", 1)[0]
-            if tool not in names:
-                names.append(tool)
-        return tuple(names)
+        return self.tool_index().names
 
     def graspers(self) -> tuple[str, ...]:
         return tuple(site[:-len("_tip")] for site in self.intestine().graspers)
 
     def tool_forces(self) -> np.ndarray:
-        return np.concatenate([self.named.data.sensordata[f"{tool}_force"] for tool in self.tools()])
+        return self.data.sensordata[self.tool_index().force_sensordata]
 
     def holding(self) -> np.ndarray:
         """1 where a grasper holds the intestine (one entry per grasper)."""
@@ -195,37 +205,28 @@ class Physics(dm_mujoco.Physics):
         return np.array([g.abscissa if g.holding else -1.0 for g in self.intestine().grasps(self.data.ptr)])
 
     def tool_joints(self) -> np.ndarray:
-        tools = set(self.tools())
-        names = [j for j in self.named.data.qpos.axes.row.names if j.rsplit("_", 1)[0] in tools]
-        return self.named.data.qpos[names].copy()
+        return self.data.qpos[self.tool_index().joint_qpos]
 
     def working_point(self, tool: str) -> np.ndarray:
         """Where a tool works (m): a grasper's tip site, a retractor's paddle centre."""
-        if f"{tool}_tip" in self.named.data.site_xpos.axes.row.names:
-            return self.named.data.site_xpos[f"{tool}_tip"].copy()
-        return self.named.data.geom_xpos[f"{tool}_paddle"].copy()
+        kind, index = self.tool_index().working_point[tool]
+        return (self.data.site_xpos if kind == "site" else self.data.geom_xpos)[index].copy()
 
     def jaws_open(self) -> bool:
         """Every grasper's jaw open (above JAW_OPEN_RAD) and holding nothing."""
-        return all(self.named.data.qpos[f"{g}_jaw"][0] > JAW_OPEN_RAD for g in self.graspers()) and \
-            not self.holding().any()
+        jaws = self.data.qpos[self.tool_index().jaw_qpos(self.graspers())]
+        return bool(np.all(jaws > JAW_OPEN_RAD)) and not self.holding().any()
 
     def tools_still(self) -> bool:
         """Every tool joint nearly at rest (hinges under STILL_RAD_S, slides under STILL_M_S): what
         stays done does not depend on tools still moving."""
-        model = self.model.ptr
-        tools = set(self.tools())
-        for joint in range(model.njnt):
-            if self.model.id2name(joint, "joint").rsplit("_", 1)[0] not in tools:
-                continue
-            speed = abs(float(self.data.qvel[model.jnt_dofadr[joint]]))
-            if speed > (STILL_M_S if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE else STILL_RAD_S):
-                return False
-        return True
+        index = self.tool_index()
+        return bool(np.all(np.abs(self.data.qvel[index.joint_dof]) <= index.still_speed))
 
     def tools_clear_of_target(self) -> bool:
         """No tool's working point over the target (grown by CLEAR_MARGIN) below CLEAR_HEIGHT."""
-        centre, half = self.target()[:3], self.target()[3:] + CLEAR_MARGIN
+        target = self.target()
+        centre, half = target[:3], target[3:] + CLEAR_MARGIN
         for tool in self.tools():
             point = self.working_point(tool)
             if np.all(np.abs(point[:2] - centre[:2]) <= half) and point[2] - centre[2] < CLEAR_HEIGHT:
@@ -233,15 +234,56 @@ class Physics(dm_mujoco.Physics):
         return True
 
 
+class ToolIndex:
+    """The tools of one compiled model, by index: what the tasks read every step without looking
+    names up (Physics.tool_index)."""
+
+    def __init__(self, physics: Physics):
+        model = physics.model
+        self.model = model.ptr
+        names: list[str] = []
+        for i in range(model.nu):
+            tool = model.id2name(i, "actuator").rsplit("_", 1)[0]
+            if tool not in names:
+                names.append(tool)
+        self.names = tuple(names)
+        tools = set(names)
+        sensors = [mujoco.mj_name2id(model.ptr, mujoco.mjtObj.mjOBJ_SENSOR, f"{tool}_force") for tool in names]
+        self.force_sensordata = np.concatenate(
+            [np.arange(model.sensor_adr[i], model.sensor_adr[i] + model.sensor_dim[i]) for i in sensors]
+        ) if sensors else np.zeros(0, dtype=int)
+        joints = [j for j in range(model.njnt) if model.id2name(j, "joint").rsplit("_", 1)[0] in tools]
+        self.joint_names = {model.id2name(j, "joint"): j for j in joints}
+        self.joint_qpos = np.array([model.jnt_qposadr[j] for j in joints], dtype=int)
+        self.joint_dof = np.array([model.jnt_dofadr[j] for j in joints], dtype=int)
+        self.still_speed = np.array([STILL_M_S if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE else STILL_RAD_S
+                                     for j in joints])
+        self.working_point = {}
+        for tool in names:
+            site = mujoco.mj_name2id(model.ptr, mujoco.mjtObj.mjOBJ_SITE, f"{tool}_tip")
+            self.working_point[tool] = ("site", site) if site >= 0 else (
+                "geom", mujoco.mj_name2id(model.ptr, mujoco.mjtObj.mjOBJ_GEOM, f"{tool}_paddle"))
+        self._jaws: dict[tuple[str, ...], np.ndarray] = {}
+        self.target_site = mujoco.mj_name2id(model.ptr, mujoco.mjtObj.mjOBJ_SITE, "target_area")
+
+    def jaw_qpos(self, graspers: tuple[str, ...]) -> np.ndarray:
+        if graspers not in self._jaws:
+            self._jaws[graspers] = np.array(
+                [self.model.jnt_qposadr[self.joint_names[f"{g}_jaw"]] for g in graspers], dtype=int)
+        return self._jaws[graspers]
+
+
 def cells_under_tube(cells: np.ndarray, axis: np.ndarray, radius: float) -> np.ndarray:
     """Which `cells` (m, (m, 2)) a tube of `radius` (m) lies over: an `axis` point (m, (n, 2))
     within the radius of the cell in the wall's plane."""
     low, high = cells.min(axis=0) - radius, cells.max(axis=0) + radius
-    near = axis[np.all((axis >= low) & (axis <= high), axis=1)]  # the rest cannot cover
+    x, y = axis[:, 0], axis[:, 1]
+    near = axis[(x >= low[0]) & (x <= high[0]) & (y >= low[1]) & (y <= high[1])]  # the rest cannot cover
     if not len(near):
         return np.zeros(len(cells), dtype=bool)
-    squared = ((cells[:, None, :] - near[None, :, :]) ** 2).sum(axis=-1)
-    return squared.min(axis=1) <= radius ** 2
+    dx = cells[:, 0, None] - near[None, :, 0]
+    dy = cells[:, 1, None] - near[None, :, 1]
+    return (dx * dx + dy * dy).min(axis=1) <= radius ** 2
 
 
 class Measurements:
@@ -354,7 +396,7 @@ class BowelTask(base.Task):
             self._tool_speeds = self.tool_speeds(physics)
         reach = self._tool_speeds * self.control_timestep_s
         current = physics.data.ctrl
-        physics.set_control(np.clip(action, current - reach, current + reach))
+        physics.set_control(np.minimum(np.maximum(action, current - reach), current + reach))  # np.clip, cheaper
 
     def tool_speeds(self, physics: Physics) -> np.ndarray:
         """Each actuator's top speed (TOOL_SPEED by its coordinate, the name's last part)."""
@@ -561,8 +603,9 @@ def shaft_within_reach(trocar, point) -> bool:
     """Whether a shaft from `trocar` (m) pointed at `point` (m) leans at most REACH_DEG from
     vertical about both pivot axes."""
     d = np.asarray(point, dtype=float) - np.asarray(trocar, dtype=float)
-    u = d / np.linalg.norm(d)
-    pitch, yaw = np.degrees(np.arctan2(u[1], -u[2])), np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
+    u = d / math.sqrt(float((d * d).sum()))  # math, not numpy's SIMD kernels: the same bits on any CPU
+    pitch = math.degrees(math.atan2(float(u[1]), float(-u[2])))
+    yaw = math.degrees(math.asin(min(1.0, max(-1.0, float(-u[0])))))
     return abs(pitch) <= REACH_DEG and abs(yaw) <= REACH_DEG
 
 

@@ -49,7 +49,11 @@ class RetractReach(base.BowelTask):
     POLICY = RetractReachGesture
 
     def tip_distance(self, physics: Physics) -> float:
-        return float(np.linalg.norm(physics.working_point("grasper") - physics.target()[:3]))
+        """The grasper's tip to the target's centre (m)."""
+        def measure():
+            offset = physics.working_point("grasper") - physics.target()[:3]
+            return math.sqrt(float((offset * offset).sum()))
+        return self.measurements(physics).memo("tip_distance", measure)
 
     def centre_uncovered(self, physics: Physics) -> bool:
         """No tube over the target's centre: every axis point farther than the tube's radius from
