@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from viscera.numerics import norm, norms
 from viscera.tasks.base import cells_under_tube
 
 
@@ -31,7 +32,7 @@ def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None,
     drop = np.asarray(drop, dtype=float)
     points = axis[:, :2].copy()
     points[index] = drop
-    segment = np.linalg.norm(np.diff(axis, axis=0), axis=1)  # m of rope between neighbours
+    segment = norms(np.diff(axis, axis=0))  # m of rope between neighbours
     count = len(axis)
     for step in (-1, 1):
         lengths, chain, k = [0.0], [index], index
@@ -39,17 +40,17 @@ def carried(axis: np.ndarray, index: int, drop, roots: np.ndarray | None = None,
             k += step
             lengths.append(lengths[-1] + segment[min(k, k - step)])
             chain.append(k)
-            if lengths[-1] >= np.linalg.norm(drop - axis[k, :2]):
+            if lengths[-1] >= norm(drop - axis[k, :2]):
                 break
         else:  # the rope ran out at the bowel's pinned end without slack
-            if lengths[-1] < np.linalg.norm(drop - axis[chain[-1], :2]):
+            if lengths[-1] < norm(drop - axis[chain[-1], :2]):
                 return None
         anchor, total = axis[chain[-1], :2], lengths[-1]
         for length, k in zip(lengths[1:-1], chain[1:-1]):
             points[k] = drop + (length / total) * (anchor - drop)
     if roots is not None and np.isfinite(reach):
-        before = np.linalg.norm(axis - roots, axis=1)
-        after = np.linalg.norm(np.column_stack([points, axis[:, 2]]) - roots, axis=1)
+        before = norms(axis - roots)
+        after = norms(np.column_stack([points, axis[:, 2]]) - roots)
         if np.any(after > np.maximum(before, reach) + 1e-9):
             return None
     return points
@@ -69,7 +70,7 @@ def clearance(points: np.ndarray, centre, half) -> float:
     if not len(points):
         return float("inf")
     outside = np.maximum(np.abs(points - np.asarray(centre)) - np.asarray(half), 0.0)
-    return float(np.min(np.hypot(outside[:, 0], outside[:, 1])))
+    return float(np.min(norms(outside)))
 
 
 def mesentery_roots(root_line: np.ndarray, count: int) -> np.ndarray:
@@ -81,6 +82,6 @@ def mesentery_roots(root_line: np.ndarray, count: int) -> np.ndarray:
 
 def resampled(axis: np.ndarray, count: int) -> np.ndarray:
     """`axis` (m, (n, 3), in order) resampled to `count` points evenly spaced along its length."""
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(axis, axis=0), axis=1))])
+    arc = np.concatenate([[0.0], np.cumsum(norms(np.diff(axis, axis=0)))])
     s = np.linspace(0.0, arc[-1], count)
     return np.column_stack([np.interp(s, arc, axis[:, c]) for c in range(axis.shape[1])])

@@ -32,8 +32,11 @@ succeeds is measured, not written here: docs/tasks/rates.json
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from viscera.numerics import dot, norm, norms
 from viscera.tasks import carry, scene
 from viscera.tasks.base import GRID, shaft_within_reach
 from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Phase, Tools
@@ -188,13 +191,14 @@ class ClearingGesture:
         length and its climb against the table's tilt."""
         candidates = [int(i) for i in np.flatnonzero(over) if self._exposed(axis, i)] or \
             [int(np.flatnonzero(over)[np.argmax(axis[over, 2])])]
-        downhill = np.asarray(self.gravity[:2]) / np.linalg.norm(self.gravity)  # sin(tilt) along the slope
+        downhill = np.asarray(self.gravity[:2]) / norm(self.gravity)  # sin(tilt) along the slope
         roots = carry.mesentery_roots(self.root_line, len(axis))
         angles = np.arange(self.directions) * 2.0 * np.pi / self.directions
+        directions = np.array([[math.cos(angle), math.sin(angle)] for angle in angles.tolist()])
         best, choice = -np.inf, None
         for index in candidates:
             pick = axis[index, :2]
-            for direction in np.column_stack([np.cos(angles), np.sin(angles)]):
+            for direction in directions:
                 for distance in self.carry_distances:
                     drop = np.clip(pick + direction * distance, self.lay_low, self.lay_high)
                     if not shaft_within_reach(self.tools.trocar["grasper"], np.append(drop, LAY_HEIGHT)):
@@ -208,11 +212,10 @@ class ClearingGesture:
                     score = (1.0 - float(np.mean(carry.covered(points, self.cells[self.scored], self.radius)))
                              + self.clearance_weight * min(carry.clearance(points[moved], self.centre, self.half),
                                                            self.clearance_cap) / self.clearance_cap
-                             - self.distance_weight * float(np.linalg.norm(drop - pick))
-                             - self.uphill_weight * max(0.0, -float((drop - pick) @ downhill)))
+                             - self.distance_weight * norm(drop - pick)
+                             - self.uphill_weight * max(0.0, -dot(drop - pick, downhill)))
                     if score > best:
-                        best, choice = score, (index, drop, (drop - pick) / max(float(np.linalg.norm(drop - pick)),
-                                                                               1e-9))
+                        best, choice = score, (index, drop, (drop - pick) / max(norm(drop - pick), 1e-9))
         if choice is None:  # nothing feasible: the top loop, through the target's nearest edge
             index = candidates[int(np.argmax(axis[candidates, 2]))]
             side = self._exit_side(axis, index)
@@ -223,7 +226,7 @@ class ClearingGesture:
     def _exposed(self, axis: np.ndarray, index: int) -> bool:
         """No other stretch of the bowel lies on axis point `index` (its jaws would take that one)."""
         others = np.abs(np.arange(len(axis)) - index) > 2
-        near = np.linalg.norm(axis[:, :2] - axis[index, :2], axis=1) < 1.5 * self.radius
+        near = norms(axis[:, :2] - axis[index, :2]) < 1.5 * self.radius
         return not np.any(others & near & (axis[:, 2] > axis[index, 2] + self.radius))
 
     def _exit_side(self, axis: np.ndarray, index: int) -> np.ndarray:
@@ -232,7 +235,7 @@ class ClearingGesture:
         offset = axis[index, :2] - self.centre
         margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
         normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
-        uphill = normals @ np.asarray(self.gravity[:2]) < -0.05 * np.linalg.norm(self.gravity)
+        uphill = dot(normals, self.gravity[:2]) < -0.05 * norm(self.gravity)
         if uphill.all():
             uphill[:] = False
         return normals[np.argmin(np.where(uphill, np.inf, margins))]
@@ -324,7 +327,7 @@ class RetractReachGesture(ClearingGesture):
 
     def target(self, observation: np.ndarray) -> None:
         super().target(observation)
-        distance = np.linalg.norm(self.cells - self.centre, axis=1)
+        distance = norms(self.cells - self.centre)
         self.in_spot = distance <= self.spot
         self.at_centre = distance <= self.centre_radius
         self.scored = self.in_spot
@@ -337,7 +340,7 @@ class RetractReachGesture(ClearingGesture):
         """The retractor presses down the loop nearest the target's centre outside the spot (the
         one that would roll onto it), or with `path` the one nearest the grasper's shaft as it
         reaches the centre (the one it pushed on), on its top, its paddle along the bowel."""
-        distance = np.linalg.norm(axis[:, :2] - self.centre, axis=1)
+        distance = norms(axis[:, :2] - self.centre)
         outside = np.flatnonzero(distance > self.spot + self.retract_gap)
         if not len(outside):
             return
@@ -345,12 +348,12 @@ class RetractReachGesture(ClearingGesture):
         if path:  # nearest the grasper's shaft, its lowest 6 cm at the centre
             tip = np.append(self.centre, self.wall_z + self.reach_height)
             shaft = self.tools.trocar["grasper"] - tip
-            shaft /= np.linalg.norm(shaft)
-            along = np.clip((axis - tip) @ shaft, 0.0, 0.06)
-            nearness = np.linalg.norm(axis - (tip + along[:, None] * shaft), axis=1)
+            shaft /= norm(shaft)
+            along = np.clip(dot(axis - tip, shaft), 0.0, 0.06)
+            nearness = norms(axis - (tip + along[:, None] * shaft))
         index = int(outside[np.argmin(nearness[outside])])
         tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
-        roll = float(np.degrees(np.arctan2(tangent[1], tangent[0])))
+        roll = math.degrees(math.atan2(float(tangent[1]), float(tangent[0])))
         roll = (roll + 90.0) % 180.0 - 90.0  # the paddle is symmetric: the shorter turn
         self._press_at(axis[index, :2], axis[index, 2] + self.radius, roll)
 
@@ -359,17 +362,17 @@ class RetractReachGesture(ClearingGesture):
         presses; else clear it again."""
         coverage = np.asarray(observation["target_coverage"])
         forces = np.asarray(observation["tool_forces"])  # grasper then retractor, force then torque
-        return (not (coverage[self.at_centre] > 0.5).any() and np.linalg.norm(forces[6:9]) >= self.press_force
-                and np.linalg.norm(forces[0:3]) <= self.push_force)
+        return (not (coverage[self.at_centre] > 0.5).any() and norm(forces[6:9]) >= self.press_force
+                and norm(forces[0:3]) <= self.push_force)
 
     def _plan_withdraw(self) -> None:
         g = "grasper"
         centre = np.append(self.centre, self.wall_z + self.reach_height)
         forces = np.asarray(self.observation["tool_forces"])
         axis = np.asarray(self.observation["intestine_axis"]).reshape(-1, 3)
-        if np.linalg.norm(forces[0:3]) > self.push_force:  # it pushed on a loop by its shaft: hold that one
+        if norm(forces[0:3]) > self.push_force:  # it pushed on a loop by its shaft: hold that one
             self._retract(axis, path=True)
-        elif np.linalg.norm(forces[6:9]) < self.press_force:
+        elif norm(forces[6:9]) < self.press_force:
             self._retract(axis)
         self.phases += [
             _phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),

@@ -10,9 +10,11 @@ working point there, and a set of tool commands into the action vector.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
+from viscera.numerics import norm
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 JAW_OPEN_DEG = 35.0
@@ -43,14 +45,15 @@ class Tools:
 
     def coordinates(self, tool: str, point, jaw: float = 0.0, roll: float = 0.0) -> dict:
         """Tool coordinates (deg, m) that put the tool's working point at `point` (m, world): the
-        shaft pivots at the trocar (pitch about x, then yaw about y)."""
+        shaft pivots at the trocar (pitch about x, then yaw about y). Bit for bit the same on any
+        CPU (viscera.numerics)."""
         d = np.asarray(point, dtype=float) - self.trocar[tool]
-        distance = float(np.linalg.norm(d))
+        distance = norm(d)
         u = d / distance
-        yaw = np.degrees(np.arcsin(np.clip(-u[0], -1.0, 1.0)))
-        pitch = np.degrees(np.arctan2(u[1], -u[2]))
+        yaw = math.degrees(math.asin(min(1.0, max(-1.0, -float(u[0])))))
+        pitch = math.degrees(math.atan2(float(u[1]), -float(u[2])))
         depth = float(np.clip(distance - self.tip_offset[tool], 0.0, 0.22))
-        return {"pitch": float(pitch), "yaw": float(yaw), "depth": depth, "roll": roll, "jaw": jaw}
+        return {"pitch": pitch, "yaw": yaw, "depth": depth, "roll": roll, "jaw": jaw}
 
     def action(self, values: dict[str, np.ndarray]) -> np.ndarray:
         """The action vector from each tool's coordinates (deg, m; COORDINATES order)."""
@@ -58,7 +61,7 @@ class Tools:
         for tool, coordinates in values.items():
             for actuator, value, name in zip(self.actuators[tool], coordinates, COORDINATES):
                 if actuator >= 0:
-                    action[actuator] = value if name == "depth" else np.radians(value)
+                    action[actuator] = value if name == "depth" else math.radians(float(value))
         return action
 
 
@@ -97,7 +100,7 @@ class PhasedPolicy:
         """The tool's coordinates drawn back along its shaft from `point` (m) until the working
         point is `height` m up: the shaft keeps its angles, which may be at their limits."""
         d = np.asarray(point, dtype=float) - self.tools.trocar[tool]
-        rise = (height - float(point[2])) * np.linalg.norm(d) / max(1e-6, -d[2])
+        rise = (height - float(point[2])) * norm(d) / max(1e-6, -d[2])
         return dict(self.command[tool], depth=max(0.0, self.command[tool]["depth"] - rise))
 
     def jaw(self, tool: str, jaw: float, duration: float) -> ToolTrajectory:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
+import math
 import pathlib
 import xml.etree.ElementTree as ElementTree
 
@@ -124,8 +125,8 @@ class Episode:
 
     @property
     def gravity(self) -> np.ndarray:
-        tilt, azimuth = np.radians(self.tilt_deg), np.radians(self.tilt_azimuth_deg)
-        return G * np.array([-np.sin(tilt) * np.cos(azimuth), -np.sin(tilt) * np.sin(azimuth), -np.cos(tilt)])
+        tilt, azimuth = math.radians(self.tilt_deg), math.radians(self.tilt_azimuth_deg)  # math: viscera.numerics
+        return G * np.array([-math.sin(tilt) * math.cos(azimuth), -math.sin(tilt) * math.sin(azimuth), -math.cos(tilt)])
 
 
 _STARTS_CACHE: dict[str, dict[str, np.ndarray]] = {}
