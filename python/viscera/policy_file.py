@@ -76,6 +76,8 @@ import zlib
 
 import numpy as np
 
+from viscera import provenance
+
 FORMAT = "viscera-policy"
 VERSION = 1
 KINDS = ("mlp",)
@@ -613,14 +615,13 @@ def save(path: str | os.PathLike, *, weights: dict, task: str, scene: str, contr
     loaded. The fields are the meta's (the module doc); `weights` the named float arrays (kept
     float32 if given so, else float64). It is checked as load() checks it first: a
     PolicyFileError names what is wrong, and nothing is written."""
-    from viscera.recording import _now, versions
     path = pathlib.Path(path)
     meta = {"format": FORMAT, "version": VERSION, "task": task, "scene": scene,
             "control_timestep_s": control_timestep_s, "observation": observation, "action": action,
             "architecture": architecture}
     if training is not None:
         meta["training"] = training
-    meta.update(created=_now(), **versions())
+    meta.update(created=provenance.now(), **provenance.versions())
     try:
         meta = json.loads(json.dumps(meta, allow_nan=False))  # as load() will read it: lists, not tuples
     except (TypeError, ValueError) as error:

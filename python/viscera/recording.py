@@ -26,7 +26,6 @@ every action, and must end in the same state. `final_state_sha256` is the SHA-25
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import functools
 import hashlib
 import json
@@ -39,6 +38,8 @@ from collections.abc import Callable
 
 import mujoco
 import numpy as np
+
+from viscera import provenance
 
 FORMAT = "viscera-recording"
 VERSION = 1
@@ -94,17 +95,7 @@ class Recording:
             raise
 
 
-def versions() -> dict:
-    from importlib import metadata
-    try:
-        version = metadata.version("viscera")
-    except metadata.PackageNotFoundError:
-        version = "source"  # run from a checkout, not installed
-    return {"viscera": version, "mujoco": mujoco.__version__}
-
-
-def _now() -> str:
-    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+versions, _now = provenance.versions, provenance.now  # what a recording keeps of its making
 
 
 def load(path: str | os.PathLike) -> Recording:

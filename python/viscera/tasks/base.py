@@ -43,6 +43,7 @@ from __future__ import annotations
 import collections
 import functools
 import inspect
+import itertools
 import math
 from collections.abc import Callable
 
@@ -54,6 +55,7 @@ from dm_control.suite import base
 
 import viscera
 from viscera.checks import checked_integer
+from viscera.numerics import dot, norm
 from viscera.tasks import reward as reward_module  # where a parameter is called reward
 from viscera.tasks import scene
 from viscera.tasks import scene as scene_module  # where a parameter is called scene
@@ -161,14 +163,16 @@ class Physics(dm_mujoco.Physics):
         camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
         if camera < 0:
             return
+        # no BLAS (@, np.linalg.norm): the pose sets where the tools start, the same bits on any CPU
         body = model.cam_bodyid[camera]
-        position = data.xpos[body] + data.xmat[body].reshape(3, 3) @ model.cam_pos[camera]
+        rotation = data.xmat[body].reshape(3, 3)
+        position = data.xpos[body] + dot(rotation, model.cam_pos[camera])
         back = position - np.asarray(point, dtype=float)  # the camera looks along its -z
-        back /= np.linalg.norm(back)
+        back /= norm(back)
         up = np.array([0.0, 1.0, 0.0]) - back[1] * back
-        up /= np.linalg.norm(up)
+        up /= norm(up)
         world = np.stack([np.cross(up, back), up, back], axis=1)  # columns: the camera's x, y, z
-        in_body = data.xmat[body].reshape(3, 3).T @ world
+        in_body = (rotation[:, :, None] * world[:, None, :]).sum(axis=0)
         mujoco.mju_mat2Quat(model.cam_quat[camera], in_body.ravel())
         for light in range(model.nlight):
             if model.light_bodyid[light] == body:
@@ -222,6 +226,37 @@ class Physics(dm_mujoco.Physics):
         stays done does not depend on tools still moving."""
         index = self.tool_index()
         return bool(np.all(np.abs(self.data.qvel[index.joint_dof]) <= index.still_speed))
+
+    def tool_offset(self, tool: str) -> float:
+        """How far below its trocar a tool's working point is at zero depth (m)."""
+        kind, index = self.tool_index().working_point[tool]
+        position = self.model.site_pos[index] if kind == "site" else self.model.geom_pos[index]
+        return -float(position[2])
+
+    def tool_visible(self, tool: str, axis: np.ndarray | None = None, radius: float | None = None,
+                     margin: float = 0.8) -> bool:
+        """Whether the laparoscope sees `tool`'s working point: inside `margin` of its image's half
+        extents and no tube (the bowel's `axis`, m, of `radius`, m) across its line of sight."""
+        model, data = self.model.ptr, self.data.ptr
+        camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
+        if camera < 0:
+            return True
+        axis = self.dense_axis() if axis is None else axis
+        radius = self.intestine().radius if radius is None else radius
+        eye, frame = data.cam_xpos[camera], data.cam_xmat[camera].reshape(3, 3)
+        tip = self.working_point(tool)
+        local = ((tip - eye)[:, None] * frame).sum(axis=0)  # camera frame: x right, y up, looking along -z
+        if local[2] >= 0.0:
+            return False
+        half_y = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)
+        half_x = half_y * 4.0 / 3.0  # the widest image the tasks render is 4:3; 1:1 sees less sideways
+        if abs(local[0] / -local[2]) > margin * min(half_x, half_y) or abs(local[1] / -local[2]) > margin * half_y:
+            return False
+        sight = tip - eye
+        length2 = float((sight * sight).sum())
+        along = np.clip(((axis - eye) * sight).sum(axis=1) / length2, 0.0, 1.0)
+        gap = axis - (eye + along[:, None] * sight)
+        return bool(((gap * gap).sum(axis=1) > radius * radius).all())
 
     def tools_clear_of_target(self) -> bool:
         """No tool's working point over the target (grown by CLEAR_MARGIN) below CLEAR_HEIGHT."""
@@ -469,6 +504,57 @@ class BowelTask(base.Task):
             mujoco.mj_setState(physics.model.ptr, physics.data.ptr, state, full)
             mujoco.mj_forward(physics.model.ptr, physics.data.ptr)
         physics.aim_laparoscope(self.view_point(physics))
+        self.ready_tools(physics)
+
+    def ready_tools(self, physics: Physics) -> None:
+        """Every tool at a working depth in the laparoscope's view, as trainers start, its jaws
+        open, held there by its actuators (ctrl = qpos), at rest. Its working point is put on a
+        line of sight of the camera, READY_CLEARANCE_M above the bowel's top below it: of the
+        image points READY_IMAGE_POINTS (its own side of the image first), the first whose spot
+        the tool reaches from its trocar (shaft within REACH_DEG, depth in range) and that the
+        camera sees (Physics.tool_visible); the tool stays withdrawn if none does."""
+        model, data = physics.model.ptr, physics.data.ptr
+        camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
+        if camera < 0:
+            return
+        axis = physics.dense_axis()
+        radius = physics.intestine().radius
+        index = physics.tool_index()
+        eye, frame = data.cam_xpos[camera].copy(), data.cam_xmat[camera].reshape(3, 3).copy()
+        half = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)
+        taken: list[np.ndarray] = []
+        for tool in physics.tools():
+            trocar = physics.named.model.body_pos[f"{tool}_trocar"].copy()
+            offset = physics.tool_offset(tool)
+            side = 1.0 if trocar[0] >= 0.0 else -1.0
+            for (u, v), clearance in itertools.product(READY_IMAGE_POINTS, (READY_CLEARANCE_M, READY_CLEARANCE_M / 2)):
+                ray = (frame * np.array([side * u * half, v * half, -1.0])).sum(axis=1)
+                ray /= math.sqrt(float((ray * ray).sum()))
+                point = spot_on_ray(eye, ray, axis, radius + clearance)
+                if point is None or any(float(((point - other) ** 2).sum()) < READY_APART_M ** 2 for other in taken):
+                    continue
+                pose = tool_pose(trocar, point, offset)
+                if pose is None or pose["depth"] < READY_MIN_DEPTH_M:
+                    continue
+                self._set_tool(physics, index, tool, pose)
+                if physics.tool_visible(tool, axis, radius):
+                    taken.append(point)
+                    break
+            else:
+                self._set_tool(physics, index, tool, {"pitch": 0.0, "yaw": 0.0, "depth": 0.0, "roll": 0.0, "jaw": 0.0})
+
+    def _set_tool(self, physics: Physics, index: "ToolIndex", tool: str, pose: dict[str, float]) -> None:
+        model, data = physics.model.ptr, physics.data.ptr
+        for coordinate, value in pose.items():
+            joint = index.joint_names.get(f"{tool}_{coordinate}")
+            if joint is None:
+                continue
+            if coordinate == "jaw":
+                value = float(model.actuator(f"{tool}_jaw").ctrlrange[1])  # open
+            data.qpos[model.jnt_qposadr[joint]] = value
+            data.qvel[model.jnt_dofadr[joint]] = 0.0
+            data.ctrl[model.actuator(f"{tool}_{coordinate}").id] = value
+        mujoco.mj_forward(model, data)
 
     def settle(self, physics: Physics) -> None:
         """SETTLE_S s with the tools withdrawn and their jaws open, then the clock back to 0."""
@@ -591,6 +677,44 @@ class BowelTask(base.Task):
 
 
 REACH_DEG = 55.0  # a tool reaches a point when its shaft, pointed at it, leans at most this much
+READY_CLEARANCE_M = 0.04  # a tool's start: its working point this far above the bowel (m) ...
+READY_MIN_DEPTH_M = 0.03  # ... at least this far in (m) ...
+READY_APART_M = 0.03      # ... and this far from the other tools' (m)
+# where in the image a tool's working point may start (x, y in fractions of the image's half
+# height; x towards the tool's own side): a grid, nearest the lower outer part first
+READY_IMAGE_POINTS = tuple(sorted(((u / 100.0, v / 100.0) for u in range(-30, 75, 15) for v in range(-60, 61, 20)),
+                                  key=lambda p: (p[0] - 0.45) ** 2 + (p[1] + 0.25) ** 2))
+MAX_DEPTH_M = 0.22        # the tools' insertion range (the depth actuators' ctrlrange)
+
+
+def spot_on_ray(eye, ray, axis: np.ndarray, clearance: float, step: float = 0.005, reach: float = 0.4):
+    """The farthest point (m) along the line of sight from `eye` (m) in unit direction `ray` that is
+    still `clearance` (m) above the bowel's axis (`axis`, m) within that clearance horizontally,
+    and every point before it too; None if the line meets the bowel, or the floor, sooner than 5 cm."""
+    points = eye + (0.05 + step * np.arange(int(reach / step)))[:, None] * ray  # (k, 3)
+    dx = points[:, 0, None] - axis[None, :, 0]
+    dy = points[:, 1, None] - axis[None, :, 1]
+    tops = np.where(dx * dx + dy * dy < clearance * clearance, axis[None, :, 2], -np.inf).max(axis=1)
+    blocked = (points[:, 2] < clearance) | (tops > points[:, 2] - clearance)
+    first = int(np.argmax(blocked)) if blocked.any() else len(points)
+    return points[first - 1] if first > 0 else None
+
+
+def tool_pose(trocar, point, tip_offset: float) -> dict[str, float] | None:
+    """The joint values (rad, m) that point a tool's shaft from `trocar` (m) at `point` (m) with its
+    working point there (`tip_offset` m below the trocar at zero depth): pitch about x, then yaw
+    about y, as the scripted policies aim; None where the shaft would lean more than REACH_DEG
+    about either axis or the depth leave its range."""
+    d = np.asarray(point, dtype=float) - np.asarray(trocar, dtype=float)
+    distance = math.sqrt(float((d * d).sum()))
+    if distance <= tip_offset or not shaft_within_reach(trocar, point):
+        return None
+    u = d / distance
+    depth = distance - tip_offset
+    if depth > MAX_DEPTH_M:
+        return None
+    return {"pitch": math.atan2(float(u[1]), float(-u[2])), "yaw": math.asin(min(1.0, max(-1.0, float(-u[0])))),
+            "depth": depth, "roll": 0.0, "jaw": 0.0}
 
 
 def within_reach(physics: Physics, tool: str, point) -> bool:

@@ -267,6 +267,7 @@ class ClearingGesture:
     def __call__(self, time_step) -> np.ndarray:
         if time_step.first():
             self._reset()
+            self.command.update(self.tools.commands(time_step.observation))  # from where the tools start
             self.target(np.concatenate([time_step.observation["target"], time_step.observation["gravity"]]))
         axis = np.asarray(time_step.observation["intestine_axis"]).reshape(-1, 3)
         self.observation = time_step.observation

@@ -42,6 +42,18 @@ class Tools:
         self.actuators = {t: [model.actuator(f"{t}_{c}").id if f"{t}_{c}" in names else -1 for c in COORDINATES]
                           for t in self.names}
         self.action_size = model.nu
+        # where each tool coordinate is in the observation tool_joints (rad, m), in its order
+        joints = list(physics.tool_index().joint_names)
+        self.joint_entry = {t: {c: joints.index(f"{t}_{c}") for c in COORDINATES if f"{t}_{c}" in joints}
+                            for t in self.names}
+
+    def commands(self, observation) -> dict[str, dict[str, float]]:
+        """Each tool's coordinates (deg, m) as the observation `tool_joints` has them: where the
+        tools are, the start of a policy's first moves (the tasks start with the tools in view)."""
+        joints = np.asarray(observation["tool_joints"], dtype=float)
+        return {t: {c: (float(joints[entries[c]]) if c == "depth" else math.degrees(float(joints[entries[c]])))
+                    if c in entries else 0.0 for c in COORDINATES}
+                for t, entries in self.joint_entry.items()}
 
     def coordinates(self, tool: str, point, jaw: float = 0.0, roll: float = 0.0) -> dict:
         """Tool coordinates (deg, m) that put the tool's working point at `point` (m, world): the
@@ -119,6 +131,7 @@ class PhasedPolicy:
     def __call__(self, time_step) -> np.ndarray:
         if time_step.first():
             self.reset()
+            self.command = self.tools.commands(time_step.observation)  # from where the tools start
         while not self.phases or self.phase_time >= self.phases[0].duration:
             if self.phases:
                 self.phase_time -= self.phases.pop(0).duration

@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from viscera.numerics import norm
 from viscera.tasks import base
 from viscera.tasks.base import Physics
 from viscera.tasks.gesture import RetractReachGesture
@@ -64,8 +65,8 @@ class RetractReach(base.BowelTask):
     def condition(self, physics: Physics) -> bool:
         forces = physics.named.data.sensordata
         return (self.tip_distance(physics) <= REACH_M and
-                np.linalg.norm(forces["retractor_force"][:3]) >= PRESS_N and
-                np.linalg.norm(forces["grasper_force"][:3]) <= PUSH_N and self.centre_uncovered(physics))
+                norm(forces["retractor_force"][:3]) >= PRESS_N and
+                norm(forces["grasper_force"][:3]) <= PUSH_N and self.centre_uncovered(physics))
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy(),
