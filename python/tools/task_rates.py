@@ -25,7 +25,8 @@ task, 300 control steps each, every recovery counted) into docs/tasks/random_sta
 
 The seeds start at 1000 by default: the policies were tuned on seeds below 200, so these are seeds
 they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
-control step (seeded by the episode's seed); doing nothing sends zeros (every tool at its rest).
+control step (seeded by the episode's seed); doing nothing holds every tool where the episode
+starts it (in the laparoscope's view).
 Episodes run in worker processes, one per core.
 """
 
@@ -58,6 +59,7 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None, sce
     act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
     start = time.perf_counter()
     step = env.reset()
+    hold = env.physics.data.ctrl.copy()  # where the episode starts the tools: doing nothing holds them
     steps = 0
     while not step.last() and (max_steps is None or steps < max_steps):
         steps += 1
@@ -66,7 +68,7 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None, sce
         elif policy == "random":
             action = rng.uniform(spec.minimum, spec.maximum)
         else:
-            action = np.zeros(spec.shape)
+            action = hold.copy()
         step = env.step(action)
     guts = viscera.intestines(env.physics.model.ptr)
     data = env.physics.data.ptr

@@ -248,8 +248,13 @@ def policy_for(env, policy, seed: int | None) -> Callable:
         rng = np.random.default_rng(seed)
         return lambda time_step: rng.uniform(spec.minimum, spec.maximum)
     if policy == "idle":
-        hold = np.array(env.physics.data.ctrl, dtype=np.float64)  # reset leaves the settle's withdrawn pose
-        return lambda time_step: hold.copy()
+        hold = np.array(env.physics.data.ctrl, dtype=np.float64)
+
+        def idle(time_step):  # the tools held where the episode's start put them (in view)
+            if time_step.first():
+                hold[:] = env.physics.data.ctrl
+            return hold.copy()
+        return idle
     raise ValueError(f"policy {policy!r}: one of {', '.join(POLICIES)}")
 
 
