@@ -311,6 +311,17 @@ def task_throughput() -> str:
     return _rows(["task", "reset (s)"] + [f"env steps/s, {p}" for p in policies], rows)
 
 
+def env_step() -> str:
+    """From docs/bench/env_step.json (python python/tools/bench_env_step.py)."""
+    data = _json("bench/env_step.json")
+    rows = [[f"`{task}`", f"{r['step_over_physics']:.2f}x", f"{r['env_step_ms']:.2f}", f"{r['physics_step_ms']:.2f}",
+             f"{r['reset_over_step']:.0f}", f"{r['reset_ms']:.0f}"] for task, r in data["tasks"].items()]
+    goals = data["goals"]
+    rows.append([f"*goal*", f"{goals['step_over_physics']:.1f}x", "", "", f"{goals['reset_over_step']:.0f}", ""])
+    return _rows(["task", "env step / its physics", "env step (ms)", "physics (ms)", "reset, in env steps",
+                  "reset (ms)"], rows)
+
+
 def pixel_speed() -> str:
     """From docs/pixels/bench.json (python python/tools/bench_pixels.py --json docs/pixels/bench.json)."""
     data = _json("pixels/bench.json")

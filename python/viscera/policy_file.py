@@ -70,13 +70,12 @@ import math
 import os
 import pathlib
 import re
-import tempfile
 import zipfile
 import zlib
 
 import numpy as np
 
-from viscera import provenance
+from viscera import atomic, provenance
 
 FORMAT = "viscera-policy"
 VERSION = 1
@@ -633,17 +632,7 @@ def save(path: str | os.PathLike, *, weights: dict, task: str, scene: str, contr
         value = np.asarray(value)
         arrays[key] = np.ascontiguousarray(value, dtype=np.float32 if value.dtype == np.float32 else np.float64)
     _check(meta, arrays, str(path))
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as file:
-            np.savez(file, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **arrays)
-        mask = os.umask(0o022)
-        os.umask(mask)
-        os.chmod(temporary, 0o666 & ~mask)  # as a plain open() would make it: mkstemp's file is private
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
+    atomic.save_npz(path, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **arrays)
     return load(path)
 
 

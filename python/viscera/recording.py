@@ -31,7 +31,6 @@ import hashlib
 import json
 import os
 import pathlib
-import tempfile
 import zipfile
 import zlib
 from collections.abc import Callable
@@ -39,7 +38,7 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
-from viscera import provenance
+from viscera import atomic, provenance
 
 FORMAT = "viscera-recording"
 VERSION = 1
@@ -82,17 +81,7 @@ class Recording:
         """Write the recording to `path` (.npz); never a half file under that name."""
         path = pathlib.Path(path)
         meta = np.frombuffer(json.dumps(self.meta()).encode(), dtype=np.uint8)
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-        try:
-            with os.fdopen(handle, "wb") as file:
-                np.savez_compressed(file, meta=meta, actions=np.asarray(self.actions, dtype=np.float64))
-            mask = os.umask(0o022)
-            os.umask(mask)
-            os.chmod(temporary, 0o666 & ~mask)  # as a plain open() would make it: mkstemp's file is private
-            os.replace(temporary, path)
-        except BaseException:
-            os.unlink(temporary)
-            raise
+        atomic.save_npz(path, compressed=True, meta=meta, actions=np.asarray(self.actions, dtype=np.float64))
 
 
 versions, _now = provenance.versions, provenance.now  # what a recording keeps of its making
