@@ -235,9 +235,11 @@ def test_teleop_without_a_display_is_one_line():
 
 
 def test_pressing_the_bowel_into_the_wall_raises_the_overlays_warning():
-    """The grasper driven 3 cm below a loop of bowel lying on the posterior wall: the tissue's
-    force on it passes the traction limit, the snapshot warns and the overlay says so; a hold's
-    force-time product past its limit warns too."""
+    """The grasper drawn back up its shaft, pointed at a loop of bowel lying on the posterior wall,
+    then driven down the shaft 3 cm below it: the tissue's force on it passes the traction limit,
+    the snapshot warns and the overlay says so; a hold's force-time product past its limit warns
+    too. (Driven there straight from where the episode starts it, in view, the tip sweeps the
+    loop aside instead of pressing it.)"""
     from viscera import assess
     from viscera.tasks.policies import Tools
     from viscera.teleop import app
@@ -247,8 +249,12 @@ def test_pressing_the_bowel_into_the_wall_raises_the_overlays_warning():
     reachable = [p for p in lowest if np.linalg.norm(p[:2] - tools.trocar["grasper"][:2]) < 0.05]
     point = min(reachable, key=lambda p: p[2]) - np.array([0.0, 0.0, 0.03])
     goal = tools.coordinates("grasper", point, jaw=40.0)
-    session.device = FixedTargets({"grasper": np.array([goal[c] for c in COORDINATES])})
+    pressing = np.array([goal[c] for c in COORDINATES])
+    session.device = FixedTargets({"grasper": np.where(np.array(COORDINATES) == "depth", 0.0, pressing)})
     session.device.start(session.tools)
+    while session.data.time < 1.5:  # up the shaft, and pointed at the loop
+        session.tick()
+    session.device.wanted = {"grasper": pressing}
     warned = False
     while not warned and session.data.time < 6.0:
         session.tick()
