@@ -248,9 +248,8 @@ class Physics(dm_mujoco.Physics):
         local = ((tip - eye)[:, None] * frame).sum(axis=0)  # camera frame: x right, y up, looking along -z
         if local[2] >= 0.0:
             return False
-        half_y = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)
-        half_x = half_y * 4.0 / 3.0  # the widest image the tasks render is 4:3; 1:1 sees less sideways
-        if abs(local[0] / -local[2]) > margin * min(half_x, half_y) or abs(local[1] / -local[2]) > margin * half_y:
+        half = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)  # fovy is vertical
+        if max(abs(local[0]), abs(local[1])) / -local[2] > margin * half:  # inside a square image, the narrowest
             return False
         sight = tip - eye
         length2 = float((sight * sight).sum())
