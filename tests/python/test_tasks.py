@@ -455,29 +455,35 @@ def test_a_scripted_policy_acts_on_the_time_steps_alone(task):
 
 @pytest.mark.parametrize("name", viscera.tasks.ALL)
 def test_every_tool_starts_in_the_laparoscopes_view(name):
-    """At every episode's start each tool's working point is in the laparoscope's image, and what
-    the camera draws there is the tool (segmentation), not a loop in front of it; the tool is
-    inserted at a working depth and at rest, held where it is (ctrl = qpos)."""
+    """At every episode's start the laparoscope sees each tool: MuJoCo's segmentation render from
+    it shows pixels of the tool's own geoms, a grasper's jaw among them (not a loop in front of
+    them), and the working point projects inside the image; the tool is inserted at a working
+    depth and at rest, held where it is (ctrl = qpos)."""
     import math
     for seed in (1000, 1001, 1002):
-        env = viscera.tasks.load(name, seed=seed, pixels=True, width=84, height=84)
-        step = env.reset()
+        env = viscera.tasks.load(name, seed=seed)
+        env.reset()
         physics = env.physics
         model, data = physics.model.ptr, physics.data.ptr
+        with mujoco.Renderer(model, 84, 84) as renderer:
+            renderer.enable_segmentation_rendering()
+            renderer.update_scene(data, camera="laparoscope")
+            drawn = renderer.render()  # per pixel: object id, object type
+        geoms = drawn[..., 0][drawn[..., 1] == mujoco.mjtObj.mjOBJ_GEOM]
         camera = model.camera("laparoscope").id
         eye, frame = data.cam_xpos[camera], data.cam_xmat[camera].reshape(3, 3)
         focal = 42.0 / math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)  # pixels, 84 high
-        segmentation = step.observation["segmentation"]
         for tool in physics.tools():
+            own = [i for i in range(model.ngeom) if model.geom(i).name.startswith(f"{tool}_")]
+            assert np.isin(geoms, own).sum() >= 20, (tool, seed)
+            if f"{tool}_jaw" in [model.geom(i).name for i in own]:
+                assert (geoms == model.geom(f"{tool}_jaw").id).any(), (tool, seed)
             local = ((physics.working_point(tool) - eye)[:, None] * frame).sum(axis=0)
             column, row = 42.0 + focal * local[0] / -local[2], 42.0 - focal * local[1] / -local[2]
-            assert 0 <= column < 84 and 0 <= row < 84, (tool, seed, column, row)
-            spot = segmentation[max(0, int(row) - 2):int(row) + 3, max(0, int(column) - 2):int(column) + 3]
-            assert (spot == 2).any(), (tool, seed, spot)  # 2: a tool
+            assert 0 <= column < 84 and 0 <= row < 84 and local[2] < 0, (tool, seed, column, row)
             depth = np.asarray(physics.named.data.qpos[f"{tool}_depth"]).item()
             assert depth >= base.READY_MIN_DEPTH_M
             for coordinate in ("pitch", "yaw", "depth"):
                 assert np.asarray(physics.named.data.ctrl[f"{tool}_{coordinate}"]).item() == np.asarray(
                     physics.named.data.qpos[f"{tool}_{coordinate}"]).item()
         assert not np.any(data.qvel[physics.tool_index().joint_dof])
-        viscera.tasks.close(env)
