@@ -70,20 +70,23 @@ def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarr
     s = np.ascontiguousarray(abscissae, dtype=np.float64).ravel()
     if q.shape[0] < 4:
         raise ValueError(f"a Catmull-Rom axis needs at least 4 control points, got {q.shape[0]}")
-    if not np.isfinite(s).all():
+    if s is not _UNIFORM.get(s.size) and not np.isfinite(s).all():  # _uniform's are finite
         raise ValueError("abscissae must be finite")
     points = np.empty((s.size, 3))
-    _library.native().viscera_spline_points(q.shape[0], q.ctypes.data_as(ctypes.c_void_p), s.size,
-                                            s.ctypes.data_as(ctypes.c_void_p), points.ctypes.data_as(ctypes.c_void_p))
+    _library.native().viscera_spline_points(q.shape[0], q.ctypes.data, s.size, s.ctypes.data, points.ctypes.data)
     return points
 
 
-@functools.lru_cache(maxsize=16)
+_UNIFORM: dict[int, np.ndarray] = {}  # count -> its abscissae (read-only, shared between calls)
+
+
 def _uniform(count: int) -> np.ndarray:
     """`count` parametric abscissae from 0 to 1 (read-only: shared between calls)."""
-    s = np.linspace(0.0, 1.0, count)
-    s.flags.writeable = False
-    return s
+    if count not in _UNIFORM:
+        s = np.linspace(0.0, 1.0, count)
+        s.flags.writeable = False
+        _UNIFORM[count] = s
+    return _UNIFORM[count]
 
 
 def default_stiffnesses(length: float) -> tuple[float, float]:
