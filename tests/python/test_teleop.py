@@ -15,6 +15,7 @@ import types
 import numpy as np
 import pytest
 
+import viscera.tasks
 import viscera.teleop
 from viscera.teleop import devices
 from viscera.teleop.devices import MAX_VELOCITY, ToolInfo
@@ -213,15 +214,18 @@ def test_key_presses_in_the_viewer_move_the_active_tool_and_switch_tools(display
     last = recording.actions[-1]
     names = [f"{t}_{c}" for t in ("grasper", "retractor") for c in COORDINATES if not (t == "retractor" and c == "jaw")]
     final = dict(zip(names, last))
+    started = viscera.tasks.load("clear_area", seed=3)
+    started.reset()
+    start = dict(zip(names, started.physics.data.ctrl))  # where the episode starts the tools (in view)
     # the grasper: 4 x 5 mm in, 2 x 2 degrees of pitch, 2 degrees of yaw, jaws closed
-    assert final["grasper_depth"] == pytest.approx(0.020)
-    assert final["grasper_pitch"] == pytest.approx(np.radians(4.0))
-    assert final["grasper_yaw"] == pytest.approx(np.radians(2.0))
+    assert final["grasper_depth"] - start["grasper_depth"] == pytest.approx(0.020)
+    assert final["grasper_pitch"] - start["grasper_pitch"] == pytest.approx(np.radians(4.0))
+    assert final["grasper_yaw"] - start["grasper_yaw"] == pytest.approx(np.radians(2.0))
     assert final["grasper_jaw"] == pytest.approx(0.0)
     # then Page Down: the retractor, 2 x 5 mm in and 15 degrees of roll
-    assert final["retractor_depth"] == pytest.approx(0.010)
-    assert final["retractor_roll"] == pytest.approx(np.radians(15.0))
-    assert final["retractor_pitch"] == 0.0 and final["grasper_roll"] == 0.0
+    assert final["retractor_depth"] - start["retractor_depth"] == pytest.approx(0.010)
+    assert final["retractor_roll"] - start["retractor_roll"] == pytest.approx(np.radians(15.0))
+    assert final["retractor_pitch"] == start["retractor_pitch"] and final["grasper_roll"] == start["grasper_roll"]
 
 
 def test_teleop_without_a_display_is_one_line():
