@@ -37,8 +37,11 @@ order listed, any of:
   `previous_action_start` "zeros");
 - "pixels": the features of `pixel_encoder` {"scale": S, "layers": [...]} over the RGB / S as
   (3, height, width): each layer {"kind": "conv2d", "weight": ARRAY (out, in, kh, kw), "bias":
-  ARRAY (out,), "stride": s, "activation": "relu" or "none"} (no padding), then flattened in
-  (channel, row, column) order, as torch's Conv2d and Flatten do.
+  ARRAY (out,), "stride": s, "activation": "relu" or "none"} (no padding), then `pooling`:
+  "flatten" (the default: the maps in (channel, row, column) order, as torch's Conv2d and Flatten
+  do) or "spatial_softmax" (Levine, Finn, Darrell and Abbeel, JMLR 2016: each channel's softmax
+  over its positions, then the expected column and row coordinates, each -1 to 1 from the first
+  position's centre to the last's, as (channel, [column, row]): 2 x channels features).
 `layers`: [{"kind": "dense", "weight": ARRAY (out, in), "bias": ARRAY (out,), "activation"}, ...];
 the last gives `output.chunk` x action size values. `output`: `target` "action" (the network
 gives the command) or "change" (the change from the previous command, except at the action
@@ -56,7 +59,8 @@ finds there (tested with them disabled): a layer is an elementwise multiply then
 over a C-contiguous last axis (NumPy's pairwise sum, whose order does not depend on the CPU), not
 `@`, BLAS or einsum; the activations are ReLU (exact); the convolution is NumPy's
 sliding_window_view then multiply and sum; the ensembling's weights come from Python's decimal
-(integer arithmetic: libm's exp has CPU-dependent variants) and are added in a fixed order.
+(integer arithmetic: libm's exp has CPU-dependent variants) and are added in a fixed order; the
+spatial softmax's exponentials are a fixed polynomial in elementwise products and sums (_exp_array).
 """
 
 from __future__ import annotations
@@ -83,6 +87,7 @@ KINDS = ("mlp",)
 INPUTS = ("pixels", "state", "clock", "previous_action")
 ACTIVATIONS = ("relu", "none")
 TARGETS = ("action", "change")
+POOLINGS = ("flatten", "spatial_softmax")  # a pixel encoder's last step
 NORMALISATIONS = ("range", "none")
 PREVIOUS_STARTS = ("zeros",)
 DIGEST_DIGITS = 12  # the SHA-256 prefix in a policy's label
@@ -311,7 +316,8 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     if "pixels" in inputs:
         if a.get("pixel_encoder") is None:
             r.fail("architecture.inputs has 'pixels' but no pixel_encoder")
-        e = r.object(a["pixel_encoder"], "architecture.pixel_encoder", ("scale", "layers"))
+        e = r.object(a["pixel_encoder"], "architecture.pixel_encoder", ("scale", "layers"), ("pooling",))
+        pooling = r.choice(e.get("pooling", "flatten"), "pixel_encoder.pooling", POOLINGS)
         pixel_scale = r.number(e["scale"], "pixel_encoder.scale", positive=True)
         if not isinstance(e["layers"], list) or not e["layers"]:
             r.fail("pixel_encoder.layers must be a non-empty list")
@@ -329,7 +335,9 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
             height, width = conv.size(height, width)
             channels = conv.out
             encoder.append(conv)
-        features = channels * height * width
+        features = channels * height * width if pooling == "flatten" else 2 * channels
+        if pooling == "spatial_softmax":
+            encoder.append(_SpatialSoftmax(height, width))
     elif a.get("pixel_encoder") is not None:
         r.fail("architecture.pixel_encoder without 'pixels' in the inputs")
 
@@ -386,6 +394,42 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
             "clock_steps": clock_steps, "pixel_scale": pixel_scale, "encoder": encoder, "dense": dense,
             "target": target, "output_scale": output_scale, "absolute": mask, "chunk": chunk, "m": m,
             "ensemble_weights": weights}
+
+
+class _SpatialSoftmax:
+    """(C, H, W) maps -> (2 C,) features: per channel, the softmax over the H x W positions, then
+    the expected column and row coordinates (each -1 to 1 across the map)."""
+
+    def __init__(self, height: int, width: int):
+        columns = np.linspace(-1.0, 1.0, width) if width > 1 else np.zeros(1)
+        rows = np.linspace(-1.0, 1.0, height) if height > 1 else np.zeros(1)
+        self.coordinates = np.stack([np.tile(columns, height), np.repeat(rows, width)])[None]  # (1, 2, H W)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        flat = x.reshape(x.shape[0], -1)
+        weights = _exp_array(flat - flat.max(axis=1, keepdims=True))
+        weights = weights / weights.sum(axis=1, keepdims=True)
+        return np.multiply(weights[:, None, :], self.coordinates, order="C").sum(axis=-1).ravel()
+
+
+_LN2_HIGH, _LN2_LOW = 6.93147180369123816490e-01, 1.90821492927058770002e-10  # fdlibm's split of ln 2
+_EXP_TERMS = [1.0 / math.factorial(n) for n in range(14, -1, -1)]  # Taylor's, highest first
+
+
+def _exp_array(x: np.ndarray) -> np.ndarray:
+    """e^x elementwise for x <= 0, within 2e-16 relative: x = k ln 2 + r with |r| <= ln 2 / 2,
+    e^r by Horner's rule on its Taylor polynomial (degree 14), times 2^k exactly (ldexp). Only
+    elementwise IEEE products and sums: the same bits whatever SIMD NumPy uses, where np.exp's
+    vectorised kernels differ by CPU."""
+    x = np.asarray(x, dtype=np.float64)
+    underflow = x < -745.2  # e^x rounds to 0 in float64 below about -745.13
+    x = np.maximum(x, -745.2)
+    k = np.rint(x / _LN2_HIGH)
+    r = (x - k * _LN2_HIGH) - k * _LN2_LOW
+    p = np.full_like(r, _EXP_TERMS[0])
+    for term in _EXP_TERMS[1:]:
+        p = p * r + term
+    return np.where(underflow, 0.0, np.ldexp(p, k.astype(np.int64)))
 
 
 def _exp(x: float) -> float:
@@ -520,8 +564,8 @@ class LearnedPolicy:
                 if image.shape != shape:
                     raise ValueError(f"pixels of shape {image.shape}, the policy reads {shape}")
                 x = np.ascontiguousarray(image.transpose(2, 0, 1), dtype=np.float64) / net["pixel_scale"]
-                for conv in net["encoder"]:
-                    x = conv(x)
+                for layer in net["encoder"]:
+                    x = layer(x)
                 parts.append(x.ravel())
         x = np.concatenate(parts)
         for layer in net["dense"]:
@@ -553,6 +597,14 @@ class LearnedPolicy:
         self._previous = command
         self._steps += 1
         return command.copy()
+
+    def executed(self, command: np.ndarray) -> None:
+        """The command the last step actually executed, when another than act's (a residual
+        learner's correction added to it): the policy's next input is what was done."""
+        command = np.asarray(command, dtype=np.float64)
+        if command.shape != (self.action_size,):
+            raise ValueError(f"command of shape {command.shape}: the policy's actions are ({self.action_size},)")
+        self._previous = np.clip(command, self._low, self._high)
 
     def dm_action(self, command: np.ndarray) -> np.ndarray:
         """The dm_env action of a command (TaskEnv.dm_action's map for normalised commands)."""

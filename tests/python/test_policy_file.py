@@ -53,9 +53,10 @@ def fields(task: str = TASK, pixels: bool = False) -> dict:
 
 
 def random_policy(path, task=TASK, pixels=False, chunk=1, target="change", m=0.1, seed=0, hidden=16,
-                  float32=False) -> policy_file.LearnedPolicy:
+                  float32=False, pooling="flatten") -> policy_file.LearnedPolicy:
     """A small policy of `task` with random weights: the state (normalised), the clock and the
-    previous command (and a two-layer conv encoder on the RGB with `pixels`), `chunk` actions."""
+    previous command (and a two-layer conv encoder on the RGB with `pixels`, its maps flattened or
+    a spatial softmax's keypoints, `pooling`), `chunk` actions."""
     rng = np.random.default_rng(seed)
     described = copy.deepcopy(fields(task, pixels))
     state = sum(size for _, size in described["observation"]["state"])
@@ -73,12 +74,15 @@ def random_policy(path, task=TASK, pixels=False, chunk=1, target="change", m=0.1
         architecture["inputs"].insert(0, "pixels")
         architecture["pixel_encoder"] = {"scale": 255.0, "layers": [
             {"kind": "conv2d", "weight": "conv0.weight", "bias": "conv0.bias", "stride": 4, "activation": "relu"},
-            {"kind": "conv2d", "weight": "conv1.weight", "bias": "conv1.bias", "stride": 2, "activation": "relu"}]}
+            {"kind": "conv2d", "weight": "conv1.weight", "bias": "conv1.bias", "stride": 2,
+             "activation": "relu" if pooling == "flatten" else "none"}], "pooling": pooling}
+        # spatial softmax: maps of a few units' spread, so that the keypoints depend on the image
+        spread = 0.1 if pooling == "flatten" else 2.0
         weights.update({"conv0.weight": rng.normal(size=(6, 3, 8, 8)) * 0.1, "conv0.bias": rng.normal(size=6) * 0.1,
-                        "conv1.weight": rng.normal(size=(4, 6, 4, 4)) * 0.1, "conv1.bias": rng.normal(size=4) * 0.1})
+                        "conv1.weight": rng.normal(size=(4, 6, 4, 4)) * spread, "conv1.bias": rng.normal(size=4) * 0.1})
         height = described["observation"]["pixels"]["height"]
         size = ((height - 8) // 4 + 1 - 4) // 2 + 1
-        features = 4 * size * size
+        features = 4 * size * size if pooling == "flatten" else 2 * 4
     width = features + state + 1 + actions
     for i, (inputs, outputs, activation) in enumerate([(width, hidden, "relu"), (hidden, chunk * actions, "none")]):
         weights[f"layer{i}.weight"] = rng.normal(size=(outputs, inputs)) / np.sqrt(inputs)
@@ -312,20 +316,37 @@ def test_save_and_load_round_trip_bit_for_bit(tmp_path):
     assert np.all(np.abs(actions) <= 1.0) and np.ptp(actions, axis=0).max() > 0
 
 
-def test_the_network_is_torchs(tmp_path):
-    """The convolutions, flattening and layers compute what torch's Conv2d, Flatten and Linear do
-    with the same weights (float64): a trainer's torch module ports as it is."""
+def spatial_softmax(torch, maps):
+    """Levine et al.'s keypoints, from torch's softmax: (1, C, H, W) -> (2 C,), per channel the
+    expected column, then row, each -1 to 1 across the map."""
+    _, channels, height, width = maps.shape
+    weights = torch.softmax(maps.reshape(channels, height * width), dim=-1)
+    columns = torch.linspace(-1.0, 1.0, width, dtype=torch.float64).repeat(height)
+    rows = torch.linspace(-1.0, 1.0, height, dtype=torch.float64).repeat_interleave(width)
+    return torch.stack([(weights * columns).sum(-1), (weights * rows).sum(-1)], dim=-1).reshape(-1)
+
+
+@pytest.mark.parametrize("pooling", ["flatten", "spatial_softmax"])
+def test_the_network_is_torchs(tmp_path, pooling):
+    """The convolutions, flattening (or spatial softmax) and layers compute what torch's Conv2d,
+    Flatten (or softmax and expectations) and Linear do with the same weights (float64): a
+    trainer's torch module ports as it is."""
     torch = pytest.importorskip("torch")
-    policy = random_policy(tmp_path / "p.npz", pixels=True)
+    policy = random_policy(tmp_path / "p.npz", pixels=True, pooling=pooling)
     w = {k: torch.as_tensor(v) for k, v in policy.weights.items()}
     state, image = inputs(policy, 1)[0]
     clock, previous = 0.25, np.linspace(-0.5, 0.5, policy.action_size)
     with torch.no_grad():
         x = torch.as_tensor(image, dtype=torch.float64).permute(2, 0, 1)[None] / 255.0
         x = torch.relu(torch.nn.functional.conv2d(x, w["conv0.weight"], w["conv0.bias"], stride=4))
-        x = torch.relu(torch.nn.functional.conv2d(x, w["conv1.weight"], w["conv1.bias"], stride=2))
+        x = torch.nn.functional.conv2d(x, w["conv1.weight"], w["conv1.bias"], stride=2)
+        if pooling == "flatten":
+            features = torch.relu(x).flatten(1)[0]
+        else:
+            features = spatial_softmax(torch, x)
+            assert features.std() > 0.05  # the keypoints are spread: they test something
         normalised = (torch.as_tensor(state) - w["state.mean"]) / w["state.scale"]
-        x = torch.cat([x.flatten(1)[0], normalised, torch.tensor([clock], dtype=torch.float64), torch.as_tensor(previous)])
+        x = torch.cat([features, normalised, torch.tensor([clock], dtype=torch.float64), torch.as_tensor(previous)])
         x = torch.relu(torch.nn.functional.linear(x, w["layer0.weight"], w["layer0.bias"]))
         expected = torch.nn.functional.linear(x, w["layer1.weight"], w["layer1.bias"]).numpy()
     np.testing.assert_allclose(policy.network(state, clock, previous, image)[0], expected, rtol=1e-12, atol=1e-12)
@@ -401,13 +422,15 @@ print(" ".join(k for k, on in __cpu_features__.items() if on))
 """
 
 
-def test_inference_is_bit_identical_without_avx512_and_avx2(tmp_path):
+@pytest.mark.parametrize("pooling", ["flatten", "spatial_softmax"])
+def test_inference_is_bit_identical_without_avx512_and_avx2(tmp_path, pooling):
     """The same file and inputs in a process where NumPy's AVX-512 and AVX2 code is disabled (and
-    OpenBLAS told it is on a Haswell): the very same bits."""
+    OpenBLAS told it is on a Haswell): the very same bits (the spatial softmax's exponentials
+    included, which np.exp would not give)."""
     from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
     disabled = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)
                 and (name.startswith("AVX512") or name == "AVX2")]
-    policy = random_policy(tmp_path / "p.npz", pixels=True, chunk=3, hidden=64)
+    policy = random_policy(tmp_path / "p.npz", pixels=True, chunk=3, hidden=64, pooling=pooling)
     given = inputs(policy, 5)
     np.savez(tmp_path / "inputs.npz", states=np.array([s for s, _ in given]), images=np.array([i for _, i in given]))
     here = episode(policy, 5)
@@ -438,3 +461,14 @@ def test_a_dataset_of_a_policy_files_episodes(tmp_path):
             assert np.array_equal(written.actions, np.clip(env.gym_action(taken.actions), -1.0, 1.0))
     finally:
         env.close()
+
+
+def test_the_spatial_softmaxs_exponential_is_libms_to_the_last_bits():
+    """_exp_array (products and sums only, the same bits on any CPU) is e^x within 3e-16 relative
+    over x <= 0, down to float64's smallest normal numbers, and 0 below where e^x underflows."""
+    x = -np.concatenate([np.geomspace(1e-300, 700.0, 20_000), [0.0, np.log(2) / 2, 708.0, 746.0, 1e6]])
+    exact = np.array([math.exp(v) for v in x])
+    got = policy_file._exp_array(x)
+    normal = exact >= np.finfo(float).tiny
+    assert np.max(np.abs(got[normal] - exact[normal]) / exact[normal]) < 3e-16
+    assert got[-1] == 0.0 and got[-2] == 0.0 and got[x.size - 5] == 1.0

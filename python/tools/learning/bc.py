@@ -1,16 +1,17 @@
 """Behaviour cloning from the scripted demonstrations, on every task, from the state observations
-and, apart, from the laparoscope's pixels; evaluated on 50 seeds no demonstration used, with
-the assessment's scores; written to docs/learning/bc.json.
+and, apart, from the laparoscope's pixels: ACT-style action chunks with temporal ensembling, then
+DAgger with the scripted expert; each policy written as a policy file (viscera.policy_file) and
+evaluated through that file on 50 seeds no demonstration used, with the assessment's scores;
+written to docs/learning/bc.json and docs/learning/policies/TASK_KIND.npz.
 
     pip install ".[learning]"
     python python/tools/learning/bc.py [--tasks clear_area grasp_lift ...] [--observations state pixels]
-        [--demos-state 200] [--demos-pixels 50] [--data data/demos] [--eval-seeds 2000:2050] [--workers 2]
-        [--out docs/learning/bc.json]
+        [--demos-state 200] [--demos-pixels 50] [--data data/demos] [--eval-seeds 2000:2050]
+        [--chunk 20] [--dagger-rounds 4] [--workers 1] [--out docs/learning/bc.json]
 
 - The demonstrations: `python -m viscera dataset TASK --policy scripted --seeds 0:N --format minari
   [--pixels] --out DATA/KIND/TASK` (this script writes them when missing), read back with
-  Minari's loader: 200 episodes for the state policies, 50 with pixels for the pixel policies
-  (a frame with pixels costs 6 ms to collect). Only the demonstrations that succeeded are cloned.
+  Minari's loader. Only the demonstrations that succeeded are cloned.
 - What a policy sees, never the privileged state:
   - `state`: gymnasium's flat state observation (the task's own entries: tool joints and forces,
     the grasp, the intestine's axis points, gravity, the task's target);
@@ -19,19 +20,33 @@ the assessment's scores; written to docs/learning/bc.json.
     fraction of the time limit) and its previous command. The demonstrator's phases are timed and
     its commands are velocity-limited ramps, which the tools' measured joints lag behind: without
     them a cloned policy cannot tell where along a ramp it is.
-- The model: an MLP (state) or a small convolutional network (pixels) regressing the change of the
-  normalised command from the previous one (scaled by its spread), mean squared error, Adam, on
-  one CPU thread.
+- The model (ACT's action chunks, Zhao et al., RSS 2023, on an MLP or a small convolutional
+  network): at each step it predicts the next `chunk` commands, each as its change from the
+  previous command (scaled by the changes' spread; a jaw's command itself, since it jumps),
+  trained on every frame's next `chunk` labels (the last repeated past an episode's end). At
+  play time the command of a step is the weighted mean of every chunk's prediction for it
+  (temporal ensembling, weights exp(-m x age)).
+- DAgger (Ross, Gordon and Bagnell, AISTATS 2011): each round runs the learner on training seeds
+  with a fresh scripted policy alongside, fed the same time steps from the episode's start (the
+  script is a phased planner with memory), and records the script's command as the label of every
+  state the learner reached. Who acts is drawn every `segment` steps: the script with probability
+  beta (halved each round), else the learner. The network is then trained further on all the
+  frames so far.
+- Training: Adam on one CPU thread; L1 loss (ACT's); pixels shifted by up to 4 pixels at random
+  (DrQ's augmentation). Evaluation: the policy file, loaded, acting as `python -m viscera play
+  TASK --policy FILE` plays it.
 """
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import dataclasses
 import json
 import multiprocessing
 import pathlib
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -42,8 +57,49 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import common  # noqa: E402
 
 OUT = pathlib.Path("docs") / "learning" / "bc.json"
+POLICIES = pathlib.Path("docs") / "learning" / "policies"
 TASKS = ("clear_area", "grasp_lift", "retract_reach", "run_the_bowel")
 PROPRIOCEPTION = ("tool_joints",)  # the state entries a pixel policy also gets
+IMAGE_SIZE = (84, 84)
+DEMOS = {"state": 200, "pixels": 50}  # pixels cost 6 ms a frame to collect
+FRAME_KEYS = ("state", "pixels", "clock", "previous_action", "action")
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """The learner's settings (one per kind of observation: METHOD)."""
+
+    chunk: int = 50                    # K: commands predicted at each step (1 s at 50 Hz)
+    ensemble_m: float = -0.05          # temporal ensembling: a prediction of age a weighs exp(-m a)
+    hidden: tuple[int, ...] = (192, 192)   # the MLP's hidden layers (after the pixel encoder, if any)
+    conv: tuple[tuple[int, int, int], ...] = ()  # the pixel encoder's layers: (channels, kernel, stride)
+    pooling: str = "flatten"           # the pixel encoder's last step: "flatten" or "spatial_softmax"
+    batch: int = 256
+    learning_rate: float = 1e-3
+    final_learning_rate: float = 1e-5  # each training's rate falls to this along a cosine
+    loss: str = "l1"                   # "l1" (ACT's) or "mse"
+    target: str = "action"             # "action": the command; "change": from the previous command (a jaw's: itself)
+    updates: int = 20_000              # Adam steps on the demonstrations
+    dagger_rounds: int = 0
+    dagger_episodes: int = 20          # the learner's episodes per round
+    dagger_updates: int = 3_000        # Adam steps after each round, on every frame so far
+    beta: float = 0.5                  # the script's share of control in DAgger's rounds ...
+    beta_decay: float = 1.0            # ... multiplied by this each round
+    segment: int = 25                  # control steps between draws of who acts
+    shift: int = 0                     # pixels: random shifts of up to this many pixels (0: none)
+    previous: bool = True              # the previous command among the inputs
+
+
+METHOD = {
+    "state": Method(),
+    # keypoints: a spatial softmax over an 18 x 18 map (where the band and the jaws are), as robot
+    # learning from pixels does (Levine et al. 2016; robomimic)
+    "pixels": Method(hidden=(256,), conv=((16, 8, 4), (32, 3, 1)), pooling="spatial_softmax", batch=128,
+                     updates=10_000, shift=4),
+}
+# DAgger rounds by task: the long phased tasks drift from the demonstrations' states and gain from
+# the script's labels there; grasp_lift's short episodes clone without (its rounds did not help)
+DAGGER_ROUNDS = {"clear_area": 4, "grasp_lift": 0, "retract_reach": 4, "run_the_bowel": 4}
 
 
 def proprioception_slices(names: list[str]) -> np.ndarray:
@@ -51,164 +107,430 @@ def proprioception_slices(names: list[str]) -> np.ndarray:
     return np.array([i for i, name in enumerate(names) if name.split("[")[0] in PROPRIOCEPTION])
 
 
+def environment(task: str, pixels: bool):
+    """The gymnasium TaskEnv the demonstrations were collected in (flat state, the images beside it)."""
+    from viscera.datasets import episodes
+    from viscera.scale.gym_env import TaskEnv
+
+    return TaskEnv(**episodes.env_kwargs(task, "abdomen", pixels, IMAGE_SIZE))
+
+
+def time_limit_steps(env) -> int:
+    return int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
+
+
+# -- frames: the (input, label) pairs, episode after episode
+
+def frames_of(episodes: list[dict], names: list[str], action_names: list[str], limit_steps: int) -> dict:
+    """The frames of `episodes` (each: state, pixels or None, previous_action, action: the labels)
+    concatenated, with `end`: each frame's episode's last frame, where its chunks stop."""
+    frames = {key: None for key in FRAME_KEYS}
+    for key in FRAME_KEYS:
+        parts = [e[key] for e in episodes]
+        if parts and parts[0] is not None:
+            frames[key] = np.concatenate(parts)
+    for key in ("state", "clock", "previous_action", "action"):
+        frames[key] = frames[key].astype(np.float32)
+    lengths = [len(e["action"]) for e in episodes]
+    frames["end"] = np.repeat(np.cumsum(lengths) - 1, lengths)
+    frames.update(names=names, action_names=action_names, time_limit_steps=limit_steps, episodes=len(episodes))
+    return frames
+
+
+def aggregate(frames: dict, more: dict) -> dict:
+    """DAgger's aggregate: the frames of both."""
+    joined = dict(frames)
+    for key in FRAME_KEYS:
+        if frames[key] is not None:
+            joined[key] = np.concatenate([frames[key], more[key]])
+    joined["end"] = np.concatenate([frames["end"], more["end"] + len(frames["action"])])
+    joined["episodes"] = frames["episodes"] + more["episodes"]
+    return joined
+
+
 def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int | None = None) -> dict:
-    """The successful demonstrations' (input, action) pairs, read with Minari's loader."""
+    """The successful demonstrations' frames (frames_of), read with Minari's loader."""
     from viscera import datasets
 
     dataset = datasets.load(root, "minari", task, "scripted")
-    spec_kwargs = dataset.env_spec.kwargs
-    from viscera.scale.gym_env import TaskEnv
-    env = TaskEnv(**spec_kwargs)
+    env = environment(task, pixels)
     names = common.state_names(env)
     action_names = list(env.dm_env.physics.named.data.ctrl.axes.row.names)
-    time_limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
+    limit_steps = time_limit_steps(env)
     env.close()
-    states, images, clocks, actions, previous = [], [], [], [], []
-    used, seeds = 0, []
+    episodes, seeds = [], []
     metadata = list(dataset.storage.get_episode_metadata(dataset.episode_indices))
     for episode, meta in zip(dataset.iterate_episodes(), metadata):
         if not episode.infos["is_success"][-1]:
             continue
-        if limit is not None and used >= limit:
+        if limit is not None and len(episodes) >= limit:
             break
-        used += 1
         seeds.append(int(meta["seed"]))
         steps = len(episode.actions)
         observation = episode.observations
-        state = observation["state"][:steps] if isinstance(observation, dict) else observation[:steps]
-        states.append(state)
-        if pixels:
-            images.append(observation["pixels"][:steps])
-        clocks.append(np.arange(steps) / time_limit_steps)
         labels = episode.infos["demonstrator_action"][1:] if "demonstrator_action" in episode.infos else episode.actions
-        actions.append(labels)  # what the script commanded
-        # the policy's own previous command (the action taken, noise and all): zeros before the first
-        previous.append(np.concatenate([np.zeros_like(episode.actions[:1]), episode.actions[:-1]]))
-    if not used:
+        episodes.append({
+            "state": np.asarray(observation["state"][:steps] if isinstance(observation, dict) else observation[:steps],
+                                dtype=np.float32),
+            "pixels": observation["pixels"][:steps] if pixels else None,
+            "clock": np.arange(steps, dtype=np.float32) / limit_steps,
+            "action": np.asarray(labels, dtype=np.float32),  # what the script commanded
+            # the policy's own previous command (the action taken, noise and all): zeros before the first
+            "previous_action": np.concatenate([np.zeros_like(episode.actions[:1]), episode.actions[:-1]]).astype(
+                np.float32)})
+    if not episodes:
         raise SystemExit(f"{root}: no successful demonstration to clone")
-    return {"seeds": seeds, "action_names": action_names, "state": np.concatenate(states), "pixels": np.concatenate(images) if pixels else None,
-            "clock": np.concatenate(clocks), "action": np.concatenate(actions),
-            "previous_action": np.concatenate(previous), "episodes": used,
-            "total_episodes": dataset.total_episodes, "names": names, "time_limit_steps": time_limit_steps}
+    frames = frames_of(episodes, names, action_names, limit_steps)
+    frames.update(seeds=seeds, total_episodes=dataset.total_episodes, collected_steps=int(dataset.total_steps))
+    return frames
 
 
-class StatePolicy(nn.Module):
-    """An MLP from the state and the policy's memory."""
+# -- the network
 
-    def __init__(self, state_size: int, memory_size: int, action_size: int):
+class Network(nn.Module):
+    """An MLP over [pixel features,] state, clock and previous command, giving `chunk` x action size
+    values; the pixel encoder is a stack of unpadded ReLU convolutions, flattened."""
+
+    def __init__(self, state_size: int, action_size: int, method: Method, pixels: bool):
         super().__init__()
-        self.net = nn.Sequential(nn.Linear(state_size + memory_size, 512), nn.ReLU(), nn.Linear(512, 512), nn.ReLU(),
-                                 nn.Linear(512, action_size))
+        features = 0
+        self.conv = None
+        if pixels:
+            layers, channels = [], 3
+            for i, (out, kernel, stride) in enumerate(method.conv):
+                layers.append(nn.Conv2d(channels, out, kernel, stride=stride))
+                # keypoints' maps stay signed: the softmax takes the last layer as it is
+                if not (method.pooling == "spatial_softmax" and i == len(method.conv) - 1):
+                    layers.append(nn.ReLU())
+                channels = out
+            pooling = SpatialSoftmax() if method.pooling == "spatial_softmax" else nn.Flatten()
+            self.conv = nn.Sequential(*layers, pooling)
+            with torch.no_grad():
+                features = self.conv(torch.zeros(1, 3, *IMAGE_SIZE)).shape[1]
+        layers, width = [], features + state_size + 1 + (action_size if method.previous else 0)
+        for size in method.hidden:
+            layers += [nn.Linear(width, size), nn.ReLU()]
+            width = size
+        self.mlp = nn.Sequential(*layers, nn.Linear(width, method.chunk * action_size))
 
     def forward(self, state, memory, image=None):
-        return self.net(torch.cat([state, memory], dim=1))
+        parts = [state, memory] if self.conv is None else [self.conv(image), state, memory]
+        return self.mlp(torch.cat(parts, dim=1))
 
 
-class PixelPolicy(nn.Module):
-    """A small convolutional network (DQN's) on the RGB, then an MLP with the proprioception and memory."""
+class SpatialSoftmax(nn.Module):
+    """(B, C, H, W) maps -> (B, 2 C): each channel's softmax over its positions, then its expected
+    column and row coordinates, -1 to 1 across the map (viscera.policy_file's "spatial_softmax")."""
 
-    def __init__(self, state_size: int, memory_size: int, action_size: int):
-        super().__init__()
-        self.conv = nn.Sequential(nn.Conv2d(3, 32, 8, stride=4), nn.ReLU(), nn.Conv2d(32, 64, 4, stride=2), nn.ReLU(),
-                                  nn.Conv2d(64, 64, 3, stride=1), nn.ReLU(), nn.Flatten())
-        with torch.no_grad():
-            features = self.conv(torch.zeros(1, 3, *IMAGE_SIZE)).shape[1]
-        self.head = nn.Sequential(nn.Linear(features + state_size + memory_size, 512), nn.ReLU(),
-                                  nn.Linear(512, action_size))
-
-    def forward(self, state, memory, image):
-        return self.head(torch.cat([self.conv(image), state, memory], dim=1))
+    def forward(self, maps):
+        count, channels, height, width = maps.shape
+        weights = torch.softmax(maps.reshape(count, channels, height * width), dim=-1)
+        columns = torch.linspace(-1.0, 1.0, width).repeat(height)
+        rows = torch.linspace(-1.0, 1.0, height).repeat_interleave(width)
+        return torch.stack([(weights * columns).sum(-1), (weights * rows).sum(-1)], dim=-1).reshape(count, -1)
 
 
-def build_model(kind: str, state_size: int, action_size: int):
-    """The policy's network, from the inputs and its memory (its clock and its previous command) to
-    the change of command, in units of its spread over the demonstrations."""
-    return (StatePolicy if kind == "state" else PixelPolicy)(state_size, 1 + action_size, action_size)
+def shifted(images: torch.Tensor, shift: int, generator: torch.Generator) -> torch.Tensor:
+    """DrQ's augmentation: each image (B, C, H, W) moved by up to `shift` pixels, its edges repeated."""
+    if not shift:
+        return images
+    count, _, height, width = images.shape
+    padded = nn.functional.pad(images, (shift, shift, shift, shift), mode="replicate")
+    dy, dx = torch.randint(0, 2 * shift + 1, (2, count), generator=generator)
+    rows = (torch.arange(height)[None, :] + dy[:, None])[:, None, :, None].expand(-1, images.shape[1], -1, width + 2 * shift)
+    out = torch.gather(padded, 2, rows)
+    cols = (torch.arange(width)[None, :] + dx[:, None])[:, None, None, :].expand(-1, images.shape[1], height, -1)
+    return torch.gather(out, 3, cols)
+
+
+class Learner:
+    """The network with its input normalisation, output scale and optimiser, trained on frames,
+    acting (Cloned) and written as a policy file."""
+
+    def __init__(self, frames: dict, kind: str, method: Method, seed: int = 0):
+        torch.manual_seed(seed)
+        torch.set_num_threads(1)
+        self.kind, self.method = kind, method
+        self.generator = torch.Generator().manual_seed(seed)
+        self.inputs = np.arange(frames["state"].shape[1]) if kind == "state" else proprioception_slices(frames["names"])
+        state = frames["state"][:, self.inputs].astype(np.float64)
+        # float32 as the policy file keeps them, so that training and the file normalise alike
+        self.mean = state.mean(axis=0).astype(np.float32)
+        self.scale = (state.std(axis=0) + 1e-6).astype(np.float32)
+        self.action_names = frames["action_names"]
+        self.jaws = np.array([name.endswith("_jaw") for name in self.action_names])
+        self.time_limit_steps = frames["time_limit_steps"]
+        # the target's scale: the spread, per actuator, of the change from the previous command
+        # to each of the next `chunk` labels (a jaw: of its label)
+        sample = np.random.default_rng(seed).integers(len(frames["action"]), size=min(20_000, len(frames["action"])))
+        target = self._targets(frames, torch.as_tensor(sample)).numpy()
+        self.change_scale = (target.reshape(-1, target.shape[-1]).std(axis=0) + 1e-6).astype(np.float32)
+        self.model = Network(len(self.inputs), len(self.action_names), method, kind == "pixels")
+        self.optimiser = torch.optim.Adam(self.model.parameters(), lr=method.learning_rate)
+        self.losses: list[float] = []
+
+    def _targets(self, frames: dict, index: torch.Tensor) -> torch.Tensor:
+        """The unscaled targets (B, chunk, actions) of frames `index`: the next `chunk` labels, less
+        the previous command (a jaw's label as it is)."""
+        later = torch.minimum(index[:, None] + torch.arange(self.method.chunk)[None, :],
+                              torch.as_tensor(frames["end"])[index][:, None])
+        labels = torch.as_tensor(frames["action"])[later]
+        previous = torch.as_tensor(frames["previous_action"])[index][:, None, :]
+        if self.method.target == "action":
+            return labels
+        return torch.where(torch.as_tensor(self.jaws), labels, labels - previous)
+
+    def fit(self, frames: dict, updates: int) -> tuple[float, float]:
+        """`updates` Adam steps on batches of `frames`; the wall and CPU seconds they took."""
+        torch.set_num_threads(1)
+        method = self.method
+        self.model.train()
+        wall, cpu = time.perf_counter(), time.process_time()
+        state = torch.as_tensor((frames["state"][:, self.inputs] - self.mean) / self.scale, dtype=torch.float32)
+        memory = torch.as_tensor(np.concatenate([frames["clock"][:, None]] +
+                                                ([frames["previous_action"]] if method.previous else []), axis=1),
+                                 dtype=torch.float32)
+        images = torch.as_tensor(frames["pixels"]) if self.kind == "pixels" else None  # uint8, scaled per batch
+        scale = torch.as_tensor(self.change_scale)
+        for update in range(updates):
+            for group in self.optimiser.param_groups:
+                group["lr"] = method.final_learning_rate + 0.5 * (method.learning_rate - method.final_learning_rate) * (
+                    1.0 + np.cos(np.pi * update / updates))
+            index = torch.randint(len(state), (method.batch,), generator=self.generator)
+            image = None
+            if images is not None:
+                image = shifted(images[index].permute(0, 3, 1, 2).float() / 255.0, method.shift, self.generator)
+            target = (self._targets(frames, index) / scale).reshape(method.batch, -1)
+            error = self.model(state[index], memory[index], image) - target
+            loss = error.abs().mean() if method.loss == "l1" else (error ** 2).mean()
+            self.optimiser.zero_grad()
+            loss.backward()
+            self.optimiser.step()
+            self.losses.append(float(loss.detach()))
+        self.model.eval()
+        return time.perf_counter() - wall, time.process_time() - cpu
+
+    def policy(self, ensemble_m: float | None = None) -> "Cloned":
+        return Cloned(self, self.method.ensemble_m if ensemble_m is None else ensemble_m)
+
+    # -- the policy file
+
+    def architecture(self, ensemble_m: float) -> tuple[dict, dict]:
+        """The policy file's architecture (viscera.policy_file) and its named float32 arrays."""
+        weights = {"state_mean": self.mean, "state_scale": self.scale, "output_scale": self.change_scale}
+        inputs = ["state", "clock"] + (["previous_action"] if self.method.previous else [])
+        architecture = {"kind": "mlp", "inputs": inputs,
+                        "state_normalisation": {"mean": "state_mean", "scale": "state_scale"},
+                        "clock_steps": self.time_limit_steps}
+        if self.method.previous:
+            architecture["previous_action_start"] = "zeros"
+        if self.model.conv is not None:
+            architecture["inputs"] = ["pixels"] + inputs
+            layers = []
+            modules = list(self.model.conv)
+            convs = [j for j, m in enumerate(modules) if isinstance(m, nn.Conv2d)]
+            for i, j in enumerate(convs):
+                conv = modules[j]
+                weights[f"conv{i}.weight"] = conv.weight.detach().numpy().astype(np.float32)
+                weights[f"conv{i}.bias"] = conv.bias.detach().numpy().astype(np.float32)
+                relu = isinstance(modules[j + 1], nn.ReLU)
+                layers.append({"kind": "conv2d", "weight": f"conv{i}.weight", "bias": f"conv{i}.bias",
+                               "stride": int(conv.stride[0]), "activation": "relu" if relu else "none"})
+            architecture["pixel_encoder"] = {"scale": 255.0, "layers": layers, "pooling": self.method.pooling}
+        dense = [m for m in self.model.mlp if isinstance(m, nn.Linear)]
+        architecture["layers"] = []
+        for i, linear in enumerate(dense):
+            weights[f"dense{i}.weight"] = linear.weight.detach().numpy().astype(np.float32)
+            weights[f"dense{i}.bias"] = linear.bias.detach().numpy().astype(np.float32)
+            architecture["layers"].append({"kind": "dense", "weight": f"dense{i}.weight", "bias": f"dense{i}.bias",
+                                           "activation": "relu" if i < len(dense) - 1 else "none"})
+        output = {"target": self.method.target, "scale": "output_scale", "chunk": self.method.chunk}
+        if self.method.target == "change":
+            output["absolute"] = [int(i) for i in np.flatnonzero(self.jaws)]
+        if self.method.chunk > 1:
+            output["temporal_ensemble_m"] = float(ensemble_m)
+        architecture["output"] = output
+        return architecture, weights
+
+    def save(self, path: pathlib.Path, task: str, ensemble_m: float | None = None, training: dict | None = None):
+        """Write the policy file (viscera.policy_file.save) and check that it gives the network's
+        commands; the loaded LearnedPolicy."""
+        from viscera import policy_file
+
+        ensemble_m = self.method.ensemble_m if ensemble_m is None else ensemble_m
+        env = environment(task, self.kind == "pixels")
+        try:
+            keys = list(PROPRIOCEPTION) if self.kind == "pixels" else None
+            fields = policy_file.describe(env.dm_env, state=keys, pixels=self.kind == "pixels")
+            if fields["action"]["names"] != self.action_names:
+                raise RuntimeError(f"{task}: the environment's actuators {fields['action']['names']} are not the "
+                                   f"demonstrations' {self.action_names}")
+            architecture, weights = self.architecture(ensemble_m)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            loaded = policy_file.save(path, weights=weights, architecture=architecture, training=training or {},
+                                      **fields)
+            self._check_file(loaded, env)
+        finally:
+            env.close()
+        return loaded
+
+    def _check_file(self, loaded, env, steps: int = 30) -> None:
+        """That the file's inference (float64 NumPy on the float32 weights) gives the network's
+        commands, on the first steps of an episode driven by the file."""
+        cloned = self.policy(loaded.meta["architecture"]["output"].get("temporal_ensemble_m"))
+        observation, _ = env.reset(seed=0)
+        loaded.reset()
+        worst = 0.0
+        for _ in range(steps):
+            mine = cloned(observation)
+            theirs = loaded.act(loaded.state_of(env.time_step.observation),
+                                env.time_step.observation["pixels"] if self.kind == "pixels" else None)
+            worst = max(worst, float(np.max(np.abs(mine - theirs))))
+            observation, *_ = env.step(theirs)
+            cloned.previous = theirs  # each follows the file's commands
+        env.end_episode()
+        if worst > 1e-3:
+            raise RuntimeError(f"{loaded.path}: the file's commands differ from the network's by {worst:.2g}")
 
 
 class Cloned:
-    """A trained policy as `act(observation)` for common.episode; remembers its own steps (the
-    clock) and its previous command."""
+    """A learner's policy as `act(observation)` on a gymnasium observation (flat, or a Dict with
+    pixels), giving the normalised command: the same inference as its policy file (chunks,
+    temporal ensembling, the clock and the previous command), in torch. `previous` is settable:
+    DAgger's mixture sets it to the command the script executed."""
 
-    def __init__(self, model, kind, mean, std, inputs, time_limit_steps, action_size, change_scale, jaws):
-        self.model, self.kind, self.mean, self.std, self.change_scale = model, kind, mean, std, change_scale
-        self.jaws = jaws
-        self.inputs, self.time_limit_steps, self.model_action_size = inputs, time_limit_steps, action_size
+    def __init__(self, learner: Learner, ensemble_m: float):
+        self.learner = learner
+        chunk = learner.method.chunk
+        self.weights = np.exp(-ensemble_m * np.arange(chunk)) if chunk > 1 else np.ones(1)
+        self.mean, self.scale = learner.mean.astype(np.float64), learner.scale.astype(np.float64)
+        self.change_scale = learner.change_scale.astype(np.float64)
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         self.step = 0
-        self.previous = None
+        self.previous = np.zeros(len(self.learner.action_names))
+        self.chunks: list[tuple[int, np.ndarray]] = []
 
-    def __call__(self, observation):
-        import torch
-
+    def predict(self, observation) -> np.ndarray:
+        """The chunk (chunk, actions) of commands predicted at this step, clipped to [-1, 1]."""
+        learner = self.learner
         state = observation["state"] if isinstance(observation, dict) else observation
-        state = (state[self.inputs] - self.mean) / self.std
-        if self.previous is None:
-            self.previous = np.zeros(self.model_action_size)
-        memory = np.concatenate([[self.step / self.time_limit_steps], self.previous])
-        self.step += 1
+        state = (np.asarray(state, dtype=np.float64)[learner.inputs] - self.mean) / self.scale
+        memory = np.concatenate([[self.step / learner.time_limit_steps]] +
+                                ([self.previous] if learner.method.previous else []))
+        image = None
+        if learner.kind == "pixels":
+            image = torch.as_tensor(np.ascontiguousarray(observation["pixels"]),
+                                    dtype=torch.float32).permute(2, 0, 1)[None] / 255.0
         with torch.no_grad():
-            image = None
-            if self.kind == "pixels":
-                image = torch.as_tensor(observation["pixels"], dtype=torch.float32).permute(2, 0, 1)[None] / 255.0
-            action = self.model(torch.as_tensor(state, dtype=torch.float32)[None],
+            raw = learner.model(torch.as_tensor(state, dtype=torch.float32)[None],
                                 torch.as_tensor(memory, dtype=torch.float32)[None], image)
-        output = action[0].numpy().astype(np.float64) * self.change_scale
-        self.previous = np.clip(np.where(self.jaws, output, self.previous + output), -1.0, 1.0)
-        return self.previous
+        raw = raw[0].numpy().astype(np.float64).reshape(learner.method.chunk, -1) * self.change_scale
+        if learner.method.target == "change":
+            raw = np.where(learner.jaws, raw, self.previous + raw)
+        return np.clip(raw, -1.0, 1.0)
+
+    def __call__(self, observation) -> np.ndarray:
+        self.chunks.append((self.step, self.predict(observation)))
+        self.chunks = self.chunks[-len(self.weights):]
+        total, command = 0.0, np.zeros_like(self.previous)
+        for made, chunk in self.chunks:
+            age = self.step - made
+            command = command + self.weights[age] * chunk[age]
+            total += self.weights[age]
+        self.previous = np.clip(command / total, -1.0, 1.0)
+        self.step += 1
+        return self.previous.copy()
 
 
-def train(data: dict, kind: str, updates: int, seed: int = 0, batch: int | None = None,
-          learning_rate: float = 1e-3) -> tuple:
-    """The trained policy (Cloned), the training's wall and CPU seconds and its last loss."""
-    import torch
+def train(data: dict, kind: str, updates: int, seed: int = 0, method: Method | None = None) -> tuple:
+    """Behaviour cloning alone: the trained policy (Cloned), the training's wall and CPU seconds
+    and its last loss."""
+    method = dataclasses.replace(method or METHOD[kind], updates=updates)
+    learner = Learner(data, kind, method, seed)
+    wall, cpu = learner.fit(data, updates)
+    return learner.policy(), wall, cpu, float(np.mean(learner.losses[-100:]))
 
-    batch = batch or BATCH[kind]
-    torch.manual_seed(seed)
+
+# -- DAgger
+
+def _dagger_episodes(policy: Cloned, task: str, kind: str, seeds: list[int], beta: float, segment: int,
+                     draw_seed: int) -> list[dict]:
+    """The learner's episodes on `seeds` with a fresh script alongside each, its commands the labels;
+    who acts drawn every `segment` steps (the script with probability beta)."""
+    import viscera.tasks
+
     torch.set_num_threads(1)
-    inputs = np.arange(data["state"].shape[1]) if kind == "state" else proprioception_slices(data["names"])
-    state = data["state"][:, inputs]
-    mean, std = state.mean(axis=0), state.std(axis=0) + 1e-6
-    x = torch.as_tensor((state - mean) / std, dtype=torch.float32)
-    memory = torch.as_tensor(np.concatenate([data["clock"][:, None], data["previous_action"]], axis=1),
-                             dtype=torch.float32)
-    # the target: the command's change from the previous one, scaled per actuator (a ramp's steps are
-    # small next to the command itself: regressed directly, they drown in its error); a jaw's
-    # command jumps (open, then shut at once): its target is the command itself
-    jaws = np.array([name.endswith("_jaw") for name in data["action_names"]])
-    change = np.where(jaws, data["action"], data["action"] - data["previous_action"])
-    change_scale = change.std(axis=0) + 1e-6
-    y = torch.as_tensor(change / change_scale, dtype=torch.float32)
-    images = torch.as_tensor(data["pixels"]) if kind == "pixels" else None  # uint8, scaled per batch
-    model = build_model(kind, len(inputs), y.shape[1])
-    optimiser = torch.optim.Adam(model.parameters(), lr=learning_rate)
-    generator = torch.Generator().manual_seed(seed)
-    wall, cpu = time.perf_counter(), time.process_time()
-    for _ in range(updates):
-        index = torch.randint(len(y), (batch,), generator=generator)
-        image = images[index].permute(0, 3, 1, 2).float() / 255.0 if images is not None else None
-        loss = torch.mean((model(x[index], memory[index], image) - y[index]) ** 2)
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
-    model.eval()
-    policy = Cloned(model, kind, mean, std, inputs, data["time_limit_steps"], y.shape[1], change_scale, jaws)
-    return policy, time.perf_counter() - wall, time.process_time() - cpu, float(loss.detach())
+    env = environment(task, kind == "pixels")
+    if kind == "pixels":
+        env.dm_env.task.camera = RGBOnly(env.dm_env.task.camera)
+    limit_steps = time_limit_steps(env)
+    rng = np.random.default_rng(draw_seed)
+    episodes = []
+    try:
+        for seed in seeds:
+            observation, info = env.reset(seed=int(seed))
+            expert = viscera.tasks.scripted_policy(env.dm_env)  # fresh: the script remembers its plan
+            policy.reset()
+            states, images, previous, labels = [], [], [], []
+            done, steps, scripted = False, 0, False
+            while not done:
+                label = np.clip(env.gym_action(expert(env.time_step)), -1.0, 1.0)
+                if steps % segment == 0:
+                    scripted = rng.random() < beta
+                before = policy.previous.copy()
+                command = policy(observation)
+                if scripted:
+                    command = policy.previous = label
+                state = observation["state"] if isinstance(observation, dict) else observation
+                states.append(state)
+                if kind == "pixels":
+                    images.append(observation["pixels"])
+                previous.append(before)
+                labels.append(label)
+                observation, _, terminated, truncated, info = env.step(command)
+                steps += 1
+                done = terminated or truncated
+            episodes.append({"seed": int(seed), "success": bool(info["is_success"]), "steps": steps,
+                             "state": np.asarray(states, dtype=np.float32),
+                             "pixels": np.asarray(images) if kind == "pixels" else None,
+                             "clock": np.arange(steps) / limit_steps, "previous_action": np.asarray(previous),
+                             "action": np.asarray(labels)})
+    finally:
+        env.close()
+    return episodes
 
 
-def collect(root: pathlib.Path, task: str, demos: int, pixels: bool, workers: int) -> None:
-    """The task's scripted demonstrations as a Minari dataset at root/task, unless there already."""
+def dagger_round(policy: Cloned, task: str, kind: str, seeds: list[int], beta: float, segment: int, draw_seed: int,
+                 workers: int) -> list[dict]:
+    """_dagger_episodes on `seeds`, in `workers` processes (their episodes in seed order)."""
+    if workers == 1:
+        return _dagger_episodes(policy, task, kind, seeds, beta, segment, draw_seed)
+    parts = [list(part) for part in np.array_split(np.asarray(seeds), workers) if len(part)]
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(len(parts), mp_context=context) as pool:
+        results = list(pool.map(_dagger_episodes, [policy] * len(parts), [task] * len(parts), [kind] * len(parts),
+                                parts, [beta] * len(parts), [segment] * len(parts),
+                                [draw_seed + i for i in range(len(parts))]))
+    return [episode for part in results for episode in part]
+
+
+# -- collecting and evaluating
+
+def collect(root: pathlib.Path, task: str, demos: int, pixels: bool, workers: int) -> bool:
+    """The task's scripted demonstrations as a Minari dataset at root/task, unless there already;
+    whether it collected them."""
     from viscera import datasets
 
     if (root / task).exists():
-        return
+        return False
     root.mkdir(parents=True, exist_ok=True)
     summary = datasets.write(task, root / task, "minari", demonstrator="scripted", seeds=range(demos), pixels=pixels,
                              workers=workers, progress=True)
     print(f"{task}: {summary['episodes']} demonstrations, {summary['successes']} successful, "
           f"{summary['wall_s']:.0f} s", flush=True)
+    return True
 
 
 class RGBOnly:
@@ -229,39 +551,153 @@ class RGBOnly:
         return getattr(self._camera, name)
 
 
-def _evaluate(policy: Cloned, task: str, kind: str, seeds) -> list[dict]:
-    from viscera.datasets import episodes
+def _evaluate_file(path: str, seeds) -> list[dict]:
+    """The policy file's episodes on `seeds`, the file loaded and acting on dm_env time steps as
+    `python -m viscera play` runs it."""
+    from viscera import policy_file
 
-    torch.set_num_threads(1)  # one core per evaluating process
-    from viscera.scale.gym_env import TaskEnv
-
-    env = TaskEnv(**episodes.env_kwargs(task, "abdomen", kind == "pixels", IMAGE_SIZE))
-    if kind == "pixels":
+    policy = policy_file.load(path)
+    env = environment(policy.task, policy.pixels is not None)
+    policy.check_env(env.dm_env)
+    if policy.pixels is not None:
         env.dm_env.task.camera = RGBOnly(env.dm_env.task.camera)
     try:
-        return [common.episode(env, policy, int(seed)) for seed in seeds]
+        return [common.policy_episode(env, policy, int(seed)) for seed in seeds]
     finally:
         env.close()
 
 
-def evaluate(policy: Cloned, task: str, kind: str, seeds, workers: int = 1) -> dict:
-    """common.summarise of the policy's episodes on `seeds`, in `workers` processes."""
-    import torch
-
-    torch.set_num_threads(1)
+def evaluate(path: pathlib.Path, seeds, workers: int = 1) -> dict:
+    """common.summarise of the policy file's episodes on `seeds`, in `workers` processes."""
+    seeds = [int(s) for s in seeds]
     if workers == 1:
-        return common.summarise(_evaluate(policy, task, kind, seeds))
-    parts = [list(part) for part in np.array_split(np.asarray(list(seeds)), workers) if len(part)]
+        return common.summarise(_evaluate_file(str(path), seeds))
+    parts = [list(part) for part in np.array_split(np.asarray(seeds), workers) if len(part)]
     context = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(len(parts), mp_context=context) as pool:
-        results = list(pool.map(_evaluate, [policy] * len(parts), [task] * len(parts), [kind] * len(parts), parts))
+        results = list(pool.map(_evaluate_file, [str(path)] * len(parts), parts))
     return common.summarise([episode for part in results for episode in part])
 
 
-IMAGE_SIZE = (84, 84)
-UPDATES = {"state": 10_000, "pixels": 3_000}   # Adam steps
-BATCH = {"state": 256, "pixels": 128}
-DEMOS = {"state": 200, "pixels": 50}            # pixels cost 6 ms a frame to collect and 2 to evaluate
+# -- one task, one kind of observation
+
+def run(task: str, kind: str, root: pathlib.Path, demos: int, method: Method, eval_seeds, curve_seeds,
+        policy_path: pathlib.Path, workers: int, seed: int = 0, log=print) -> dict:
+    """Collect (if missing), clone, DAgger, write the policy file and evaluate it: bc.json's entry."""
+    clock = common.Clock()
+    collected = collect(root, task, demos, kind == "pixels", workers)
+    collection = clock.lap() if collected else None  # else read from an earlier run: its cost unmeasured here
+    data = load_demonstrations(root / task, task, pixels=kind == "pixels")
+    overlap = sorted(set(data["seeds"]) & set(int(s) for s in eval_seeds))
+    if overlap:  # a dataset left from another run can hold any seeds: read, not assumed
+        raise SystemExit(f"{root / task}: demonstrations on the evaluation's seeds {overlap[:5]}...")
+    # DAgger's episodes on seeds after the demonstrations' (new scenes), all below the evaluation's
+    dagger_seeds = list(range(demos, demos + method.dagger_rounds * method.dagger_episodes))
+    if dagger_seeds and max(dagger_seeds) >= min(eval_seeds):
+        raise SystemExit(f"DAgger's seeds {demos}:{max(dagger_seeds) + 1} reach the evaluation's {min(eval_seeds)}")
+    env_steps = data["collected_steps"]
+    core_s = collection["cpu_s"] if collection else 0.0
+    learner = Learner(data, kind, method, seed)
+    frames = data
+    stages = {"collect": collection, "train": [], "dagger": [], "curve_eval": []}
+    curve = []
+    result_record = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for round_ in range(method.dagger_rounds + 1):
+            if round_:
+                beta = method.beta * method.beta_decay ** (round_ - 1)
+                seeds = dagger_seeds[(round_ - 1) * method.dagger_episodes:round_ * method.dagger_episodes]
+                clock.lap()
+                episodes = dagger_round(learner.policy(), task, kind, seeds, beta, method.segment,
+                                        draw_seed=seed * 1000 + round_, workers=workers)
+                lap = clock.lap()
+                steps = sum(e["steps"] for e in episodes)
+                stages["dagger"].append(dict(lap, round=round_, beta=beta, episodes=len(episodes), env_steps=steps,
+                                             learner_successes=sum(e["success"] for e in episodes)))
+                env_steps += steps
+                core_s += lap["cpu_s"]
+                frames = aggregate(frames, frames_of(episodes, data["names"], data["action_names"],
+                                                     data["time_limit_steps"]))
+                log(f"{task} {kind}: DAgger round {round_} (beta {beta:.2f}): {steps} steps, "
+                    f"{sum(e['success'] for e in episodes)} of {len(episodes)} episodes succeeded, "
+                    f"{lap['wall_s']:.0f} s")
+            updates = method.updates if round_ == 0 else method.dagger_updates
+            wall, cpu = learner.fit(frames, updates)
+            core_s += cpu
+            loss = float(np.mean(learner.losses[-100:]))
+            stages["train"].append({"round": round_, "updates": updates, "frames": len(frames["action"]),
+                                    "wall_s": wall, "cpu_s": cpu, "loss": loss})
+            log(f"{task} {kind}: round {round_}: trained on {len(frames['action'])} frames, {updates} updates in "
+                f"{wall:.0f} s, loss {loss:.4f}")
+            last = round_ == method.dagger_rounds
+            training = {"method": dataclasses.asdict(method), "demonstrations": data["episodes"],
+                        "demonstration_seeds": [min(data["seeds"]), max(data["seeds"])],
+                        "dagger_rounds": round_, "frames": len(frames["action"]), "env_steps": env_steps,
+                        "updates": sum(t["updates"] for t in stages["train"]), "final_loss": loss,
+                        "versions": common.versions("torch", "minari")}
+            path = policy_path if last else pathlib.Path(scratch) / f"round{round_}.npz"
+            learner.save(path, task, training=training)
+            if last or curve_seeds:
+                clock.lap()
+                seeds = eval_seeds if last else curve_seeds
+                result = evaluate(path, seeds, workers)
+                lap = clock.lap()
+                (stages.setdefault("eval", []) if last else stages["curve_eval"]).append(dict(lap, round=round_))
+                curve.append({"round": round_, "env_steps": env_steps, "core_hours": core_s / 3600.0,
+                              "success_rate": result["success_rate"], "mean_return": result["mean_return"],
+                              "eval_seeds": [min(seeds), max(seeds)], "episodes": result["episodes"]})
+                log(f"{task} {kind}: round {round_}: success {result['success_rate']:.2f} on {len(seeds)} seeds "
+                    f"({lap['wall_s']:.0f} s)")
+                if last:
+                    result_record = result
+    train_wall = sum(t["wall_s"] for t in stages["train"])
+    train_cpu = sum(t["cpu_s"] for t in stages["train"])
+    result_record.update(
+        variant="action chunks + DAgger" if method.dagger_rounds else "action chunks",
+        chunk=method.chunk, temporal_ensemble_m=method.ensemble_m, dagger_rounds=method.dagger_rounds,
+        dagger_episodes_per_round=method.dagger_episodes, dagger_episodes=method.dagger_rounds * method.dagger_episodes,
+        demonstrations=data["episodes"], demonstrations_collected=data["total_episodes"],
+        demonstration_seeds=[min(data["seeds"]), max(data["seeds"])], demonstration_frames=int(len(data["action"])),
+        frames=int(len(frames["action"])), env_steps=env_steps,
+        train_wall_s=train_wall, train_cpu_s=train_cpu,
+        dagger_wall_s=sum(d["wall_s"] for d in stages["dagger"]), dagger_cpu_s=sum(d["cpu_s"] for d in stages["dagger"]),
+        eval_wall_s=stages["eval"][0]["wall_s"], eval_cpu_s=stages["eval"][0]["cpu_s"],
+        final_loss=stages["train"][-1]["loss"], updates=sum(t["updates"] for t in stages["train"]),
+        batch=method.batch, eval_seeds=[min(eval_seeds), max(eval_seeds)],
+        policy_file=str(policy_path), policy_bytes=policy_path.stat().st_size,
+        method=dataclasses.asdict(method), stages=stages, curve=curve)
+    return result_record
+
+
+def figure(record: dict, path: pathlib.Path) -> None:
+    """Each policy's success on unseen seeds after each DAgger round, against the environment
+    steps (demonstrations and the learner's own episodes) and the CPU core-hours spent so far."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure_, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    for colour, task in enumerate(sorted(record["results"])):
+        for kind, entry in sorted(record["results"][task].items()):
+            curve = entry["curve"]
+            style = dict(marker="o" if kind == "state" else "s", linestyle="-" if kind == "state" else "--",
+                         color=f"C{colour}", label=f"{task} ({kind})")
+            for axis, key in zip(axes, ("env_steps", "core_hours")):
+                axis.plot([c[key] for c in curve], [100.0 * c["success_rate"] for c in curve], **style)
+    for axis, label in zip(axes, ("environment steps (demonstrations + DAgger's episodes)",
+                                  "CPU core-hours (collection, training, DAgger, curve evaluations)")):
+        axis.set_xlabel(label)
+        axis.set_xscale("log")
+        axis.grid(alpha=0.3)
+    first, last = record["eval_seeds"]
+    axes[0].set_ylabel("success on unseen seeds (%)")
+    axes[0].set_ylim(-5, 105)
+    axes[1].legend(fontsize=7, loc="upper left")
+    figure_.suptitle(f"Behaviour cloning: each DAgger round on seeds 2000-2019, the last on {first}-{last}")
+    figure_.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure_.savefig(path, dpi=110)
+    plt.close(figure_)
 
 
 def main(argv=None) -> int:
@@ -277,37 +713,50 @@ def main(argv=None) -> int:
                         help="where the demonstrations' datasets are (written there when missing)")
     parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2050),
                         help="the unseen seeds A:B the policies are evaluated on (default 2000:2050)")
-    parser.add_argument("--workers", type=int, default=2, help="processes collecting and evaluating")
+    parser.add_argument("--curve-seeds", type=common.seed_range, default=None,
+                        help="the seeds A:B each earlier DAgger round is evaluated on, for the learning curve "
+                             "(default: the evaluation's)")
+    parser.add_argument("--no-curve", action="store_true", help="evaluate the last round only")
+    parser.add_argument("--chunk", type=int, help="commands predicted per step (default: the method's)")
+    parser.add_argument("--ensemble-m", type=float, help="temporal ensembling's m (default: the method's)")
+    parser.add_argument("--updates", type=int, help="Adam steps on the demonstrations (default: the method's)")
+    parser.add_argument("--dagger-rounds", type=int, help="DAgger rounds (default: the method's)")
+    parser.add_argument("--dagger-episodes", type=int, help="learner episodes per DAgger round")
+    parser.add_argument("--dagger-updates", type=int, help="Adam steps after each DAgger round")
+    parser.add_argument("--hidden", type=int, nargs="+", help="the MLP's hidden layer sizes")
+    parser.add_argument("--loss", choices=("l1", "mse"), help="the training loss (default: l1, ACT's)")
+    parser.add_argument("--workers", type=int, default=1, help="processes collecting, rolling out and evaluating")
+    parser.add_argument("--policies", type=pathlib.Path, default=POLICIES,
+                        help=f"where the policy files go, TASK_KIND.npz (default {POLICIES})")
     parser.add_argument("--out", type=pathlib.Path, default=OUT, help=f"the results JSON (default {OUT})")
     args = parser.parse_args(argv)
     demos = {"state": args.demos_state, "pixels": args.demos_pixels}
     if min(args.eval_seeds) < max(demos.values()):
         parser.error(f"--eval-seeds {min(args.eval_seeds)}:{max(args.eval_seeds) + 1} overlaps the demonstrations' "
                      f"seeds 0:{max(demos.values())}")
+    overrides = {key: value for key, value in (
+        ("chunk", args.chunk), ("ensemble_m", args.ensemble_m), ("updates", args.updates),
+        ("dagger_rounds", args.dagger_rounds), ("dagger_episodes", args.dagger_episodes),
+        ("dagger_updates", args.dagger_updates), ("hidden", tuple(args.hidden) if args.hidden else None),
+        ("loss", args.loss)) if value is not None}
+    curve_seeds = None if args.no_curve else list(args.curve_seeds or args.eval_seeds)
 
     record = json.loads(args.out.read_text()) if args.out.exists() else {"results": {}}
-    record.update(eval_seeds=[min(args.eval_seeds), max(args.eval_seeds)], updates=UPDATES, batch=BATCH,
-                  image_size=list(IMAGE_SIZE), versions=common.versions("torch", "minari"))
+    record.update(eval_seeds=[min(args.eval_seeds), max(args.eval_seeds)], image_size=list(IMAGE_SIZE),
+                  versions=common.versions("torch", "minari"))
+    record.pop("updates", None)
+    record.pop("batch", None)
     for task in args.tasks:
         for kind in args.observations:
-            root = args.data / kind
-            collect(root, task, demos[kind], kind == "pixels", args.workers)
-            data = load_demonstrations(root / task, task, pixels=kind == "pixels")
-            overlap = sorted(set(data["seeds"]) & set(args.eval_seeds))
-            if overlap:  # a dataset left from another run can hold any seeds: read, not assumed
-                raise SystemExit(f"{root / task}: demonstrations on the evaluation's seeds {overlap[:5]}...")
-            policy, wall_s, cpu_s, loss = train(data, kind, UPDATES[kind])
-            print(f"{task} {kind}: trained on {data['episodes']} demonstrations ({len(data['action'])} frames) "
-                  f"in {wall_s:.0f} s, loss {loss:.4f}; evaluating on {len(args.eval_seeds)} seeds", flush=True)
-            result = evaluate(policy, task, kind, list(args.eval_seeds), args.workers)
-            result.update(demonstrations=data["episodes"], demonstrations_collected=data["total_episodes"],
-                          demonstration_seeds=[min(data["seeds"]), max(data["seeds"])], frames=len(data["action"]),
-                          train_wall_s=wall_s, train_cpu_s=cpu_s, final_loss=loss, updates=UPDATES[kind],
-                          batch=BATCH[kind], eval_seeds=[min(args.eval_seeds), max(args.eval_seeds)])
+            method = dataclasses.replace(METHOD[kind], dagger_rounds=DAGGER_ROUNDS[task], **overrides)
+            result = run(task, kind, args.data / kind, demos[kind], method, list(args.eval_seeds), curve_seeds,
+                         args.policies / f"{task}_{kind}.npz", args.workers, log=lambda text: print(text, flush=True))
             record["results"].setdefault(task, {})[kind] = result
-            print(f"{task} {kind}: success {result['success_rate']:.2f}", flush=True)
+            print(f"{task} {kind}: success {result['success_rate']:.2f}, policy file "
+                  f"{result['policy_bytes'] / 1024:.0f} kB", flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)
             args.out.write_text(json.dumps(record, indent=1) + "\n")
+            figure(record, args.out.with_suffix(".png"))
     return 0
 
 

@@ -1,10 +1,12 @@
 """What the learning baselines share: seed ranges, evaluating a policy on unseen seeds with the
-assessment's scores, library versions, and the learning-curve figure."""
+assessment's scores, wall and CPU clocks, library versions, and the learning-curve figure."""
 
 from __future__ import annotations
 
 import importlib.metadata
 import pathlib
+import resource
+import time
 
 import numpy as np
 
@@ -26,12 +28,53 @@ def episode(env, act, seed: int) -> dict:
         tracer.sample(env.dm_env)
         total += reward
         done = terminated or truncated
-    tracer.trace.success = bool(info["is_success"])
+    return _scored(tracer, seed, bool(info["is_success"]), total)
+
+
+def policy_episode(env, policy, seed: int) -> dict:
+    """One episode of a gymnasium TaskEnv's dm_env from `seed`, `policy(time_step) -> dm_env action`
+    (a scripted policy, or a viscera.policy_file.LearnedPolicy: it starts over on the first time
+    step) acting as `python -m viscera play` runs it: episode()'s scores."""
+    env.reset(seed=seed)
+    time_step = env.time_step
+    tracer = assess.Tracer(env.dm_env)
+    tracer.sample(env.dm_env)
+    total = 0.0
+    while not time_step.last():
+        time_step = env.dm_env.step(policy(time_step))
+        tracer.sample(env.dm_env)
+        total += float(time_step.reward)
+    env.end_episode()
+    return _scored(tracer, seed, bool(env.dm_env.task.success(env.dm_env.physics)), total)
+
+
+def _scored(tracer, seed: int, success: bool, total: float) -> dict:
+    tracer.trace.success = success
     scores = assess.score(tracer.trace)
     return {"seed": seed, "success": scores["success"], "return": total, "time_s": scores["time_s"],
             "path_length_m": sum(tool["path_length_m"] for tool in scores["tools"].values()),
             "peak_force_n": max(tool["peak_force_n"] for tool in scores["tools"].values()),
             "safety_cost": scores["safety_cost"]}
+
+
+class Clock:
+    """Wall and CPU seconds between laps; the CPU of this process and of its finished child
+    processes (worker pools), all threads included."""
+
+    def __init__(self):
+        self._last = self._now()
+
+    @staticmethod
+    def _now() -> tuple[float, float]:
+        own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return time.perf_counter(), own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+    def lap(self) -> dict:
+        """{"wall_s", "cpu_s"} since the last lap (or the clock's start)."""
+        now = self._now()
+        lap = {"wall_s": now[0] - self._last[0], "cpu_s": now[1] - self._last[1]}
+        self._last = now
+        return lap
 
 
 def summarise(episodes: list[dict]) -> dict:

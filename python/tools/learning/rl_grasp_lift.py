@@ -1,21 +1,40 @@
-"""Reinforcement learning on grasp_lift with stable-baselines3's PPO, within a CPU budget: a learning
-curve of success on unseen seeds against environment steps and CPU core-hours, written to
-docs/learning/rl_grasp_lift.json (and its figure, docs/learning/rl_grasp_lift.png).
+"""Reinforcement learning on grasp_lift with stable-baselines3's PPO, within a CPU budget, started
+from the scripted demonstrations: a learning curve of success on unseen seeds against environment
+steps and CPU core-hours, written to docs/learning/rl_grasp_lift.json (and its figure,
+docs/learning/rl_grasp_lift.png).
 
     pip install ".[learning]"
-    python python/tools/learning/rl_grasp_lift.py --budget-core-hours 1.0 [--envs 4] \
+    python python/tools/learning/rl_grasp_lift.py --budget-core-hours 2.0 [--envs 4] \
+        [--start residual|demos|scratch] [--base docs/learning/policies/grasp_lift_state.npz] \
+        [--residual-scale 0.3] [--demos 500] [--data data/demos] [--pretrain-updates 20000] [--critic-warmup 5] \
         [--eval-every 100000] [--eval-seeds 2000:2020] [--final-seeds 2000:2050] [--out docs/learning/rl_grasp_lift.json]
 
 - The environment: gymnasium's viscera/GraspLift-v0 (viscera.scale.gym_env.TaskEnv), flat state
   observations (the task's own: tool joints and forces, the grasp, the intestine's axis points,
-  gravity, the band), actions normalised to [-1, 1], the task's shaped reward.
+  gravity, the band), actions normalised to [-1, 1], the task's dense reward (its contract:
+  success is the best return). The policy also sees its own memory, as the cloned policies do
+  (bc.py): its clock (control steps taken over the episode's) and its previous action.
+- The start (the issue allows demonstrations), `--start`:
+  - `residual` (the default): residual policy learning (Silver et al. 2018; Johannink et al., ICRA
+    2019). The action is the cloned policy's command (bc.py's policy file, `--base`) plus up to
+    `--residual-scale` of PPO's correction; PPO sees the state, the clock and the base's command,
+    and its correction starts at zero, so training starts from the cloned policy. The base's
+    training CPU time (docs/learning/bc.json) is counted in the budget and its demonstrations' steps
+    in the curve's environment steps.
+  - `demos`: `--demos` scripted episodes on seeds 0 to N - 1, collected here unless already at
+    DATA/state/grasp_lift (their CPU time is then counted in the budget), set the observation
+    normalisation (then fixed), and PPO's actor's mean is trained on them (`--pretrain-updates`
+    Adam steps, L1, as bc.py) with the clock and its previous action among its inputs.
+  - `scratch`: PPO alone.
+  Started either way, PPO trains the critic alone for `--critic-warmup` rollouts, so that the first
+  policy updates follow a value that knows the task, then both.
 - Training episodes: stable-baselines3 seeds the vector environment from PPO's seed (0), so
   environment i starts on the task's seed i and draws its following episodes from that seed's
   RandomState; the curve's seeds (2000-2019) and the final 50 (2000-2049) are the first episodes
   of other seeds, which no training episode is.
-- The budget is CPU time: the process's own (learner and environments run in this one process,
-  PyTorch on one thread), so a core-hour is an hour of one core. Training stops at the first
-  update after it is spent.
+- The budget is CPU time: the process's own and its finished children's (learner and environments
+  run in this one process, PyTorch on one thread), so a core-hour is an hour of one core. Training
+  stops at the first update after it is spent.
 - The JSON is rewritten at each evaluation, so a run cut short still leaves its curve.
 """
 
@@ -30,17 +49,130 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import bc  # noqa: E402  (python/tools/learning/bc.py: the demonstrations)
 import common  # noqa: E402  (python/tools/learning/common.py)
 
 OUT = pathlib.Path("docs") / "learning" / "rl_grasp_lift.json"
+BASE = pathlib.Path("docs") / "learning" / "policies" / "grasp_lift_state.npz"
 TASK = "grasp_lift"
 
 
-def evaluate(model, normalizer, seeds: list[int]) -> dict:
-    """The deterministic policy on each seed: success, return, the assessment's scores."""
-    from viscera.scale.gym_env import TaskEnv
+def with_memory(env):
+    """`env` (a TaskEnv) whose observation also holds the policy's memory: the clock (control steps
+    taken over the episode's steps) and the previous action (zeros at the start), as bc.py's."""
+    import gymnasium
 
-    env = TaskEnv(TASK)
+    class WithMemory(gymnasium.Wrapper):
+        def __init__(self, env):
+            super().__init__(env)
+            self.limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
+            size = env.observation_space.shape[0] + 1 + env.action_space.shape[0]
+            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
+
+        @property
+        def dm_env(self):
+            return self.env.dm_env
+
+        def _observed(self, observation):
+            return np.concatenate([observation, [self.steps / self.limit_steps], self.previous])
+
+        def reset(self, **kwargs):
+            observation, info = self.env.reset(**kwargs)
+            self.steps, self.previous = 0, np.zeros(self.env.action_space.shape)
+            return self._observed(observation), info
+
+        def step(self, action):
+            action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+            observation, reward, terminated, truncated, info = self.env.step(action)
+            self.steps, self.previous = self.steps + 1, action
+            return self._observed(observation), reward, terminated, truncated, info
+
+    return WithMemory(env)
+
+
+def residual_on(env, base_path: pathlib.Path, scale: float):
+    """`env` (a TaskEnv) acting through a base policy file: the action is the base's command plus
+    `scale` times the learner's correction in [-1, 1] (residual policy learning: Silver et al.
+    2018, Johannink et al., ICRA 2019); the observation is the state, the clock and the base's
+    command. The base takes the executed command as its previous one."""
+    import gymnasium
+
+    from viscera import policy_file
+
+    class Residual(gymnasium.Wrapper):
+        def __init__(self, env):
+            super().__init__(env)
+            self.base = policy_file.load(base_path)
+            self.base.check_env(env.dm_env)
+            self.limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
+            size = env.observation_space.shape[0] + 1 + env.action_space.shape[0]
+            self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
+
+        @property
+        def dm_env(self):
+            return self.env.dm_env
+
+        def _observed(self, observation):
+            self.base_action = self.base.act(self.base.state_of(self.env.time_step.observation))
+            return np.concatenate([observation, [self.steps / self.limit_steps], self.base_action])
+
+        def reset(self, **kwargs):
+            observation, info = self.env.reset(**kwargs)
+            self.steps = 0
+            self.base.reset()
+            return self._observed(observation), info
+
+        def step(self, action):
+            action = np.clip(self.base_action + scale * np.clip(np.asarray(action, dtype=float), -1.0, 1.0), -1.0, 1.0)
+            observation, reward, terminated, truncated, info = self.env.step(action)
+            self.steps += 1
+            self.base.executed(action)
+            return self._observed(observation), reward, terminated, truncated, info
+
+    return Residual(env)
+
+
+def demonstration_inputs(frames: dict) -> tuple[np.ndarray, np.ndarray]:
+    """bc.load_demonstrations' frames as (observations with memory, the script's actions)."""
+    inputs = np.concatenate([frames["state"], frames["clock"][:, None], frames["previous_action"]], axis=1)
+    return inputs.astype(np.float64), np.clip(frames["action"], -1.0, 1.0).astype(np.float32)
+
+
+def pretrain(model, normalizer, frames: dict, updates: int, seed: int = 0) -> dict:
+    """The normalisation's statistics from the demonstrations (then fixed) and the actor's mean
+    trained on their actions (Adam, L1, cosine rate 1e-3 to 1e-5, batches of 256); its last loss."""
+    import torch
+
+    observations, actions = demonstration_inputs(frames)
+    normalizer.obs_rms.mean = observations.mean(axis=0)
+    normalizer.obs_rms.var = observations.var(axis=0) + 1e-8
+    normalizer.obs_rms.count = float(len(observations))
+    normalizer.training = False  # the statistics the actor was trained with stay
+    inputs = torch.as_tensor(normalizer.normalize_obs(observations), dtype=torch.float32)
+    targets = torch.as_tensor(actions)
+    policy = model.policy
+    actor = list(policy.mlp_extractor.policy_net.parameters()) + list(policy.action_net.parameters())
+    optimiser = torch.optim.Adam(actor, lr=1e-3)
+    generator = torch.Generator().manual_seed(seed)
+    losses = []
+    policy.train()
+    for update in range(updates):
+        for group in optimiser.param_groups:
+            group["lr"] = 1e-5 + 0.5 * (1e-3 - 1e-5) * (1.0 + np.cos(np.pi * update / updates))
+        index = torch.randint(len(inputs), (256,), generator=generator)
+        loss = (policy.get_distribution(inputs[index]).distribution.mean - targets[index]).abs().mean()
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        losses.append(float(loss.detach()))
+    policy.set_training_mode(False)
+    return {"updates": updates, "final_loss": float(np.mean(losses[-100:])) if losses else None,
+            "frames": int(len(inputs))}
+
+
+def evaluate(model, normalizer, make_env, seeds: list[int]) -> dict:
+    """The deterministic policy on each seed of `make_env()`: success, return, the assessment's scores."""
+    env = make_env()
 
     def act(observation):
         observation = normalizer.normalize_obs(observation[None])[0] if normalizer is not None else observation
@@ -81,6 +213,21 @@ def main(argv=None) -> int:
     parser.add_argument("--budget-core-hours", type=float, default=1.0,
                         help="CPU time to train for, evaluations included (default 1.0)")
     parser.add_argument("--envs", type=int, default=4, help="environments stepped in lockstep in this process")
+    parser.add_argument("--start", choices=("residual", "demos", "scratch"), default="residual",
+                        help="residual: PPO learns a correction to the cloned policy --base (default); demos: PPO's "
+                             "actor pretrained on --demos demonstrations; scratch: PPO alone")
+    parser.add_argument("--base", type=pathlib.Path, default=BASE,
+                        help=f"the residual's base policy file (default {BASE}, bc.py's)")
+    parser.add_argument("--residual-scale", type=float, default=0.3,
+                        help="the residual's largest correction, in normalised action units (default 0.3)")
+    parser.add_argument("--demos", type=int, default=500,
+                        help="with --start demos: scripted demonstrations, seeds 0 to N - 1 (default 500)")
+    parser.add_argument("--data", type=pathlib.Path, default=pathlib.Path("data") / "demos",
+                        help="where the demonstrations' datasets are, DATA/state/grasp_lift (written there when missing)")
+    parser.add_argument("--pretrain-updates", type=int, default=20_000,
+                        help="Adam steps training the actor on the demonstrations (default 20000)")
+    parser.add_argument("--critic-warmup", type=int, default=5,
+                        help="rollouts that train the critic alone before the actor moves (default 5)")
     parser.add_argument("--eval-every", type=int, default=100_000, help="environment steps between evaluations")
     parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2020),
                         help="the learning curve's unseen seeds A:B (default 2000:2020)")
@@ -96,61 +243,141 @@ def main(argv=None) -> int:
 
     from viscera.scale.gym_env import TaskEnv
 
+    first_unseen = min(min(args.eval_seeds), min(args.final_seeds))
+    if args.start == "demos" and args.demos > first_unseen:
+        parser.error(f"--demos {args.demos}: the demonstrations' seeds 0:{args.demos} reach the evaluation's")
+    base_entry = None
+    if args.start == "residual":
+        from viscera import policy_file
+        try:
+            base = policy_file.load(args.base)
+            base.check_task(TASK)
+        except policy_file.PolicyFileError as error:
+            parser.error(f"--base {args.base}: {error}")
+        seeds = base.meta["training"].get("demonstration_seeds", [0, 0])
+        if seeds[1] >= first_unseen:
+            parser.error(f"--base {args.base}: its demonstrations' seeds {seeds} reach the evaluation's")
+        record_path = pathlib.Path(bc.OUT)
+        if record_path.exists():  # what the base cost: its training, from bc.py's record
+            base_entry = json.loads(record_path.read_text())["results"].get(TASK, {}).get("state")
+            if base_entry is not None and pathlib.Path(base_entry["policy_file"]).name != args.base.name:
+                base_entry = None
     torch.set_num_threads(1)
     budget_s = args.budget_core_hours * 3600.0
-    cpu_start = time.process_time()
+    clock = common.Clock()  # this process's CPU and its finished children's (a collection's workers)
+    spent = {"cpu_s": 0.0}
+
+    def cpu_s() -> float:
+        spent["cpu_s"] += clock.lap()["cpu_s"]
+        return spent["cpu_s"]
+
+    start = {"kind": args.start}
+    if args.start == "demos":
+        start["demonstrations"] = args.demos
+        collected = bc.collect(args.data / "state", TASK, args.demos, pixels=False, workers=1)
+        frames = bc.load_demonstrations(args.data / "state" / TASK, TASK, pixels=False, limit=args.demos)
+        start.update(collected_here=collected, demonstrations_cloned=frames["episodes"],
+                     demonstration_env_steps=frames["collected_steps"])
+    elif args.start == "residual":
+        start.update(base=str(args.base), base_sha256=base.sha256, residual_scale=args.residual_scale,
+                     demonstration_env_steps=int(base.meta["training"].get("env_steps", 0)),
+                     base_training_cpu_s=None if base_entry is None else
+                     base_entry["train_cpu_s"] + base_entry["dagger_cpu_s"],
+                     base_success_rate=None if base_entry is None else base_entry["success_rate"])
+        spent["cpu_s"] += start["base_training_cpu_s"] or 0.0  # the base's training is in the budget
+
+    def make_env():
+        if args.start == "residual":
+            return residual_on(TaskEnv(TASK), args.base, args.residual_scale)
+        return with_memory(TaskEnv(TASK))
 
     # seeded at the first reset (from PPO's seed): environment i from task seed i
-    venv = VecNormalize(VecMonitor(DummyVecEnv([lambda: TaskEnv(TASK)] * args.envs)),
-                        norm_obs=True, norm_reward=False, clip_obs=10.0)
-    hyper = dict(n_steps=1024, batch_size=256, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95,
-                 clip_range=0.2, ent_coef=0.0, policy_kwargs=dict(net_arch=[256, 256], log_std_init=-0.5))
+    venv = VecNormalize(VecMonitor(DummyVecEnv([make_env] * args.envs)), norm_obs=True, norm_reward=False, clip_obs=10.0)
+    started = args.start != "scratch"
+    hyper = dict(n_steps=1024, batch_size=256, n_epochs=10, learning_rate=1e-4 if started else 3e-4,
+                 gamma=0.995, gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, target_kl=0.03 if started else None,
+                 policy_kwargs=dict(net_arch=[256, 256], log_std_init=-1.5 if started else -0.5))
     model = PPO("MlpPolicy", venv, seed=0, verbose=0, device="cpu", **hyper)
+    if args.start == "demos":
+        start.update(pretrain(model, venv, frames, args.pretrain_updates))
+    if args.start == "residual":
+        with torch.no_grad():  # no correction at the start: the base policy as it is
+            model.policy.action_net.weight.zero_()
+            model.policy.action_net.bias.zero_()
+    if started:
+        start["critic_warmup_rollouts"] = args.critic_warmup
     curve: list[dict] = []
-    record = {"task": TASK, "algorithm": "PPO (stable-baselines3)", "hyperparameters": hyper,
+    algorithm = {"residual": "PPO (stable-baselines3), residual on the cloned policy",
+                 "demos": "PPO (stable-baselines3), actor pretrained on demonstrations", "scratch": "PPO (stable-baselines3)"}
+    record = {"task": TASK, "algorithm": algorithm[args.start],
+              "hyperparameters": hyper, "start": start, "reward": "dense (the task's contract)",
               "envs": args.envs, "budget_core_hours": args.budget_core_hours,
               "train_seeds": f"environment i starts on task seed i (0 to {args.envs - 1}), then draws from its RandomState",
               "eval_seeds": [min(args.eval_seeds), max(args.eval_seeds)],
               "final_seeds": [min(args.final_seeds), max(args.final_seeds)], "curve": curve,
               "versions": common.versions("stable_baselines3", "torch")}
 
+    references_clock = common.Clock()
     record["references_on_eval_seeds"] = references(list(args.eval_seeds))
-    record["references_note"] = "the scripted policy and uniform random actions on the curve's seeds, the same episode returns"
+    record["references_note"] = ("the scripted policy and uniform random actions on the curve's seeds, the same "
+                                 "episode returns (their CPU time is not in the budget)")
+    spent["cpu_s"] -= references_clock.lap()["cpu_s"]
 
     def write():
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(record, indent=1) + "\n")
 
+    demo_steps = start.get("demonstration_env_steps", 0)
+
+    def point(steps: int) -> None:
+        """The curve's point at `steps` of PPO (plus the demonstrations' steps), its evaluation counted in the budget."""
+        used = cpu_s()
+        result = evaluate(model, venv, make_env, list(args.eval_seeds))
+        curve.append({"env_steps": int(steps) + demo_steps, "ppo_env_steps": int(steps), "core_hours": used / 3600.0,
+                      "success_rate": result["success_rate"], "mean_return": result["mean_return"]})
+        print(f"{steps:>9} steps  {used / 3600:.3f} core-h  success {result['success_rate']:.2f}"
+              f"  return {result['mean_return']:.1f}", flush=True)
+        write()
+
+    actor = [p for name, p in model.policy.named_parameters()
+             if name.startswith(("mlp_extractor.policy_net", "action_net", "log_std"))]
+
     class Curve(BaseCallback):
-        """Evaluates on the unseen seeds every `eval_every` steps; stops once the budget is spent."""
+        """Evaluates on the unseen seeds every `eval_every` steps; holds the actor for the critic's
+        warm-up rollouts; stops once the budget is spent."""
 
         def __init__(self):
             super().__init__()
-            self.next_eval = 0
+            self.next_eval = args.eval_every
+            self.rollouts = 0
+
+        def _on_training_start(self) -> None:
+            for parameter in actor:
+                parameter.requires_grad_(not (started and args.critic_warmup))
 
         def _on_step(self) -> bool:
-            return time.process_time() - cpu_start <= budget_s
+            return cpu_s() <= budget_s
 
         def _on_rollout_end(self) -> None:
+            self.rollouts += 1
+            if self.rollouts == args.critic_warmup + 1:
+                for parameter in actor:
+                    parameter.requires_grad_(True)
             steps = self.num_timesteps
             if steps >= self.next_eval:
                 self.next_eval = steps + args.eval_every
-                cpu_s = time.process_time() - cpu_start  # evaluations are counted in the budget
-                result = evaluate(self.model, venv, list(args.eval_seeds))
-                curve.append({"env_steps": int(steps), "core_hours": cpu_s / 3600.0,
-                              "success_rate": result["success_rate"], "mean_return": result["mean_return"]})
-                print(f"{steps:>9} steps  {cpu_s / 3600:.3f} core-h  success {result['success_rate']:.2f}"
-                      f"  return {result['mean_return']:.1f}", flush=True)
-                write()
+                point(steps)
+
+    point(0)  # the start: the pretrained actor (or PPO's initial one)
 
     wall_start = time.perf_counter()
     model.learn(total_timesteps=10 ** 9, callback=Curve())
     record["train_env_steps"] = int(model.num_timesteps)
-    record["train_core_hours"] = (time.process_time() - cpu_start) / 3600.0
+    record["train_core_hours"] = cpu_s() / 3600.0
     record["train_wall_s"] = time.perf_counter() - wall_start
     model.save(args.out.with_suffix(".zip"))
     venv.save(str(args.out.with_suffix(".normalizer.pkl")))
-    final = evaluate(model, venv, list(args.final_seeds))
+    final = evaluate(model, venv, make_env, list(args.final_seeds))
     record["final"] = final
     write()
     common.curve_figure(record, args.out.with_suffix(".png"))
