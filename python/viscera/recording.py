@@ -29,10 +29,10 @@ import dataclasses
 import functools
 import hashlib
 import json
+import math
 import os
 import pathlib
 import zipfile
-import zlib
 from collections.abc import Callable
 
 import mujoco
@@ -45,6 +45,14 @@ VERSION = 1
 POLICIES = ("scripted", "random", "idle")
 # what every recording's meta holds (created and the versions are informative only)
 REQUIRED = ("task", "seed", "policy", "control_timestep_s", "time_limit_s", "steps", "success", "final_state_sha256")
+
+
+MAX_SEED = 2 ** 32 - 1             # numpy's RandomState, which the tasks draw their episodes from, takes no more
+MAX_TIME_LIMIT_S = 1e6             # simulated s: the command line's longest episode (cli.MAX_DURATION_S)
+MAX_CONTROL_TIMESTEP_S = 1.0       # s: the tools are driven at 50 Hz; a control period of seconds is no episode
+MAX_META_BYTES = 1 << 20           # a recording's meta is under 1 kB
+MAX_ACTIONS_BYTES = 1 << 32        # 4 GiB: a MAX_TIME_LIMIT_S episode at 50 Hz, 9 actuators (3.6 GB)
+ENTRIES = {"meta": (np.dtype(np.uint8), 1, MAX_META_BYTES), "actions": (np.dtype("<f8"), 2, MAX_ACTIONS_BYTES)}
 
 
 class RecordingError(ValueError):
@@ -88,7 +96,9 @@ versions, _now = provenance.versions, provenance.now  # what a recording keeps o
 
 
 def load(path: str | os.PathLike) -> Recording:
-    """The recording in `path`; RecordingError (one line) for anything wrong with the file."""
+    """The recording in `path`; RecordingError (one line) for anything wrong with the file, whatever
+    its bytes: every entry is read and every value checked (type, shape, finiteness, range) before
+    anything is built or stepped from it."""
     import viscera.tasks
     name = str(path)
     if not os.path.exists(path):
@@ -101,68 +111,170 @@ def load(path: str | os.PathLike) -> Recording:
         if start == b"PK\x03\x04":  # a zip's first entry, its directory at the end gone: cut short
             raise RecordingError(f"{name}: truncated (the .npz file ends before its zip directory)")
         raise RecordingError(f"{name}: not a viscera recording (not an .npz file)")
+    arrays = _read_entries(path, name)
     try:
-        with np.load(path, allow_pickle=False) as archive:
-            keys = set(archive.files)
-            if "meta" not in keys:
-                raise RecordingError(f"{name}: not a viscera recording (no 'meta' entry; it has {sorted(keys)})")
-            meta_bytes = archive["meta"]
-            actions = archive["actions"] if "actions" in keys else None
-    except RecordingError:
-        raise
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError) as error:  # truncated, CRC, bad entry
-        raise RecordingError(f"{name}: corrupt or truncated ({_one_line(error)})") from None
-    try:
-        meta = json.loads(bytes(np.asarray(meta_bytes, dtype=np.uint8)).decode())
-    except (ValueError, UnicodeDecodeError, TypeError):
+        meta = json.loads(arrays["meta"].tobytes().decode())
+    except (ValueError, UnicodeDecodeError, RecursionError):  # RecursionError: JSON nested thousands deep
         raise RecordingError(f"{name}: corrupt: its 'meta' entry is not JSON") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise RecordingError(f"{name}: not a viscera recording (format {meta.get('format') if isinstance(meta, dict) else None!r})")
+        raise RecordingError(f"{name}: not a viscera recording "
+                             f"(format {_short(meta.get('format')) if isinstance(meta, dict) else None})")
     version = meta.get("version")
-    if not isinstance(version, int) or version < 1:
-        raise RecordingError(f"{name}: bad format version {version!r}")
+    if not _is_int(version) or version < 1:
+        raise RecordingError(f"{name}: bad format version {_short(version)}")
     if version > VERSION:
-        raise RecordingError(f"{name}: format version {version} is newer than this viscera reads ({VERSION}): "
-                             "upgrade viscera")
+        raise RecordingError(f"{name}: format version {_short(version)} is newer than this viscera reads "
+                             f"({VERSION}): upgrade viscera")
     for key in REQUIRED:
         if key not in meta:
             raise RecordingError(f"{name}: its meta has no {key!r}")
-    if actions is None:
+    if "actions" not in arrays:
         raise RecordingError(f"{name}: no 'actions' entry")
     task = meta["task"]
-    if task not in viscera.tasks.ALL:
-        raise RecordingError(f"{name}: unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
+    if not isinstance(task, str) or task not in viscera.tasks.ALL:
+        raise RecordingError(f"{name}: unknown task {_short(task)}; known: {', '.join(viscera.tasks.ALL)}")
     scene = meta.get("scene", "abdomen")
-    if scene not in viscera.tasks.scene.SCENES:
-        raise RecordingError(f"{name}: unknown scene {scene!r}; known: {', '.join(viscera.tasks.scene.SCENES)}")
-    seed = meta["seed"]
-    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2 ** 32):
-        raise RecordingError(f"{name}: seed {seed!r} is not an integer from 0 to 2^32 - 1")
-    for key in ("control_timestep_s", "time_limit_s"):
+    if not isinstance(scene, str) or scene not in viscera.tasks.scene.SCENES:
+        raise RecordingError(f"{name}: unknown scene {_short(scene)}; known: {', '.join(viscera.tasks.scene.SCENES)}")
+    for key in ("seed", "policy_seed"):
+        value = meta.get(key)
+        if value is not None and (not _is_int(value) or not 0 <= value <= MAX_SEED):
+            raise RecordingError(f"{name}: {key} {_short(value)} is not an integer from 0 to 2^32 - 1")
+    for key, limit in (("control_timestep_s", MAX_CONTROL_TIMESTEP_S), ("time_limit_s", MAX_TIME_LIMIT_S)):
         value = meta[key]
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value <= 0:
-            raise RecordingError(f"{name}: {key} {value!r} is not a positive number")
-    if not isinstance(meta["policy"], str) or not meta["policy"]:
-        raise RecordingError(f"{name}: policy {meta['policy']!r} is not a name")
+        if not _is_number(value) or not value > 0:  # NaN too
+            raise RecordingError(f"{name}: {key} {_short(value)} is not a positive number")
+        if not value <= limit:  # compared before any float(): an integer of 400 digits overflows it
+            raise RecordingError(f"{name}: {key} {_short(value)} is more than {limit:g} s")
+    if not isinstance(meta["policy"], str) or not meta["policy"] or not meta["policy"].isprintable():  # one line
+        raise RecordingError(f"{name}: policy {_short(meta['policy'])} is not a name")
     if not isinstance(meta["success"], bool):
-        raise RecordingError(f"{name}: success {meta['success']!r} is not true or false")
+        raise RecordingError(f"{name}: success {_short(meta['success'])} is not true or false")
     digest = meta["final_state_sha256"]
     if not isinstance(digest, str) or len(digest) != 64 or not set(digest) <= set("0123456789abcdef"):
-        raise RecordingError(f"{name}: final_state_sha256 {digest!r} is not a SHA-256 (64 hex digits)")
+        raise RecordingError(f"{name}: final_state_sha256 {_short(digest)} is not a SHA-256 (64 hex digits)")
+    actions = arrays["actions"]
     if actions.dtype != np.float64 or actions.ndim != 2:
         raise RecordingError(f"{name}: actions must be a 2-D float64 array, got {actions.dtype} {actions.shape}")
-    width = action_width(task, scene)
-    if actions.shape[1] != width:
-        raise RecordingError(f"{name}: actions of {actions.shape[1]} values per tick, the task {task!r} takes {width}")
     if not np.all(np.isfinite(actions)):
         raise RecordingError(f"{name}: actions hold NaN or infinite values")
     expected = meta["steps"]
-    if not isinstance(expected, int) or isinstance(expected, bool) or expected != len(actions):
-        raise RecordingError(f"{name}: meta says {expected!r} steps, the actions hold {len(actions)}")
-    versions = {k: meta[k] for k in ("viscera", "mujoco") if k in meta}
-    return Recording(task, seed, str(meta["policy"]), float(meta["control_timestep_s"]), float(meta["time_limit_s"]),
-                     actions, meta["success"], digest,
-                     meta.get("policy_seed"), str(meta.get("created", "")), versions, scene)
+    if not _is_int(expected) or expected != len(actions):
+        raise RecordingError(f"{name}: meta says {_short(expected)} steps, the actions hold {len(actions)}")
+    width, physics_timestep_s, low, high = _task_shape(task, scene)
+    if actions.shape[1] != width:
+        raise RecordingError(f"{name}: actions of {actions.shape[1]} values per tick, the task {task!r} takes {width}")
+    # a policy's commands stay within the action spec (the task moves toward them at the tools' speeds, MuJoCo
+    # clamps them); a span's margin each side keeps any overshoot, while 1e308 (deg from rad: inf) is corrupt
+    outside = (actions < low - (high - low)) | (actions > high + (high - low))
+    if np.any(outside):
+        tick, actuator = (int(i) for i in np.argwhere(outside)[0])
+        raise RecordingError(f"{name}: action {actions[tick, actuator]!r} at tick {tick}, actuator {actuator}, is far "
+                             f"outside the task's range [{low[actuator]:g}, {high[actuator]:g}]")
+    control_timestep_s, time_limit_s = float(meta["control_timestep_s"]), float(meta["time_limit_s"])
+    if control_timestep_s < physics_timestep_s or not _whole_physics_steps(control_timestep_s, physics_timestep_s):
+        raise RecordingError(f"{name}: control_timestep_s {control_timestep_s!r} is not a whole number of the "
+                             f"task's physics steps ({physics_timestep_s:g} s)")
+    # dm_control ends the episode at about this step (+ 1: its count is of physics steps, within rounding);
+    # the quotient is finite, the period at least a physics step and the limit at most MAX_TIME_LIMIT_S
+    if len(actions) > math.ceil(time_limit_s / control_timestep_s) + 1:
+        raise RecordingError(f"{name}: {len(actions)} steps, more than its time limit ({time_limit_s!r} s) at its "
+                             f"control period ({control_timestep_s!r} s) allows")
+    versions = {k: _short(meta[k], quoted=False) for k in ("viscera", "mujoco") if k in meta}
+    created = meta.get("created", "")
+    return Recording(task, meta["seed"], meta["policy"], control_timestep_s, time_limit_s, actions, meta["success"],
+                     digest, meta.get("policy_seed"), created if isinstance(created, str) else "", versions, scene)
+
+
+def _read_entries(path: str | os.PathLike, name: str) -> dict[str, np.ndarray]:
+    """The arrays of the recording's .npz, read entry by entry with every header checked before its
+    data is read (np.load would allocate a corrupt header's shape, and lets zipfile's and its own
+    parser's exceptions through): RecordingError for anything else than what `save` writes."""
+    arrays = {}
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = [info.filename for info in archive.infolist()]
+            duplicates = sorted({n for n in names if names.count(n) > 1})
+            if duplicates:  # zipfile would read the last one silently
+                raise RecordingError(f"{name}: corrupt: two entries named {_short(duplicates[0])}")
+            if "meta.npy" not in names:
+                raise RecordingError(f"{name}: not a viscera recording (no 'meta' entry; it has "
+                                     f"{_short(sorted(n.removesuffix('.npy') for n in names))})")
+            for info in archive.infolist():
+                key = info.filename.removesuffix(".npy")
+                if key not in ENTRIES or not info.filename.endswith(".npy"):
+                    raise RecordingError(f"{name}: an entry {_short(info.filename)} that no recording has")
+                arrays[key] = _read_entry(archive, info, name, *ENTRIES[key])
+    except RecordingError:
+        raise
+    except Exception as error:  # noqa: BLE001 (any bytes: zipfile's BadZipFile, NotImplementedError, zlib, EOF...)
+        raise RecordingError(f"{name}: corrupt or truncated ({_one_line(error)})") from None
+    return arrays
+
+
+def _read_entry(archive: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, dtype: np.dtype, ndim: int,
+                max_bytes: int) -> np.ndarray:
+    """One .npy entry, its header checked against what `save` writes (dtype, dimensions, C order,
+    its data's size) before the data is read."""
+    from numpy.lib import format as npy
+    key = info.filename.removesuffix(".npy")
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):  # what numpy writes
+        raise RecordingError(f"{name}: corrupt: its {key!r} entry has compression method {info.compress_type} "
+                             "(a recording's are stored or deflated)")
+    if info.flag_bits & 0x1:
+        raise RecordingError(f"{name}: corrupt: its {key!r} entry is encrypted")
+    if info.file_size > max_bytes:
+        raise RecordingError(f"{name}: corrupt: its {key!r} entry says it is {info.file_size} bytes "
+                             f"(at most {max_bytes})")
+    with archive.open(info) as entry:
+        try:
+            version = npy.read_magic(entry)
+            read_header = {(1, 0): npy.read_array_header_1_0, (2, 0): npy.read_array_header_2_0}.get(version)
+            if read_header is None:
+                raise ValueError(f"format version {version}")
+            shape, fortran_order, stored = read_header(entry)
+        except RecordingError:
+            raise
+        except Exception as error:  # noqa: BLE001 (numpy's header parser: ValueError, tokenize's TokenError...)
+            raise RecordingError(f"{name}: corrupt: its {key!r} entry's .npy header ({_one_line(error)})") from None
+        if stored != dtype or len(shape) != ndim or fortran_order:
+            raise RecordingError(f"{name}: its {key!r} entry is a {'Fortran-order ' * bool(fortran_order)}"
+                                 f"{_short(str(stored), quoted=False)} array of shape {_short(shape)}, "
+                                 f"not a {ndim}-D {dtype}")
+        size = math.prod(shape) * dtype.itemsize
+        data = entry.read(max_bytes + 1)  # to its end: zipfile checks the CRC there
+    if len(data) != size:
+        raise RecordingError(f"{name}: corrupt: its {key!r} entry's header says shape {_short(shape)}, "
+                             f"{_short(size)} bytes of data; it holds {len(data)}")
+    return np.frombuffer(bytearray(data), dtype=dtype).reshape(shape)
+
+
+def _whole_physics_steps(control_timestep_s: float, physics_timestep_s: float) -> bool:
+    """Whether dm_control's Environment takes the control period (compute_n_steps: a whole number
+    of physics steps, within 1e-8); asked before it is built, on a period already bounded."""
+    from dm_control.rl import control
+    try:
+        control.compute_n_steps(control_timestep_s, physics_timestep_s)
+    except ValueError:
+        return False
+    return True
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _short(value, quoted: bool = True, limit: int = 60) -> str:
+    """`value` for a one-line message: repr (or str), cut to `limit` characters (a corrupt meta's
+    value may be a megabyte)."""
+    if _is_int(value) and abs(value) > 10 ** limit:
+        return f"an integer of {len(str(abs(value)))} digits"  # str() of 4300+ digits raises ValueError
+    text = repr(value) if quoted else " ".join(str(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _one_line(error: BaseException) -> str:
@@ -175,10 +287,20 @@ def final_state_sha256(physics) -> str:
     return hashlib.sha256(state_of(physics.model.ptr, physics.data.ptr).tobytes()).hexdigest()
 
 
-@functools.cache
 def action_width(task: str, scene: str = "abdomen") -> int:
     """The length of `task`'s action (its tools' actuators); its scene is built once per process."""
-    return int(load_task(task, 0, scene=scene).action_spec().shape[0])
+    return _task_shape(task, scene)[0]
+
+
+@functools.cache
+def _task_shape(task: str, scene: str = "abdomen") -> tuple[int, float, np.ndarray, np.ndarray]:
+    """`task`'s action length, physics timestep (s) and action bounds (rad, m) in `scene`; built
+    once per process."""
+    env = load_task(task, 0, scene=scene)
+    spec = env.action_spec()
+    low, high = (np.broadcast_to(np.asarray(bound, dtype=np.float64), spec.shape)
+                 for bound in (spec.minimum, spec.maximum))
+    return int(spec.shape[0]), float(env.physics.timestep()), low, high
 
 
 def load_task(task: str, seed: int | None, control_timestep_s: float | None = None,
