@@ -231,14 +231,19 @@ def test_held_contact_does_not_oscillate(pressed):
     assert device.stats["internal"] == 0
 
 
-def test_reference_client_runs_at_1khz_beside_a_real_time_session(tmp_path):
+def test_reference_client_beside_a_real_time_session(tmp_path):
+    """The reference 1 kHz client against a real-time session: it runs its whole schedule, every
+    message it sends is valid, the device answers it, and the coupling stays passive. What the
+    loop does, not how fast this machine runs it: rates and deadline misses are
+    python/tools/bench_haptics.py's to measure."""
     from viscera.teleop.session import Session
 
     device = SocketDevice(port=0)
     session = Session("clear_area", seed=0, device=device, record=False)
     out = tmp_path / "client.json"
+    duration_s = 3.0
     client = subprocess.Popen([sys.executable, "-m", "viscera.teleop.haptic_client", "--port", str(device.port),
-                               "--duration", "3", "--sweep", "vigorous", "--json", str(out)])
+                               "--duration", str(duration_s), "--sweep", "vigorous", "--json", str(out)])
     try:
         result = session.run(on_frame=lambda _: client.poll() is None)
     finally:
@@ -246,11 +251,13 @@ def test_reference_client_runs_at_1khz_beside_a_real_time_session(tmp_path):
         session.close()
     assert client.returncode == 0
     measured = json.loads(out.read_text())
-    # loose bounds: CI machines are noisy; bench_haptics.py measures the goals
-    assert measured["rate_hz"] > 900.0
-    assert measured["deadline_misses"] < 0.2 and measured["lost"] < 0.05 * measured["periods"]
-    assert measured["passivity_min_j"] > -1e-3
-    assert result.ticks > 0 and device.stats["answered"] >= 0.9 * measured["sent"]
+    assert measured["periods"] == pytest.approx(duration_s * 1000.0, abs=1)  # its schedule, at 1 ms periods
+    assert measured["sent"] + measured["skipped"] == measured["periods"] and measured["sent"] > 0
+    assert measured["server_dropped"]["invalid"] == 0  # the reference client speaks the protocol
+    answered = measured["sent"] - measured["lost"]
+    assert answered > 0 and device.stats["answered"] >= answered  # each answer it counts, the device sent
+    assert measured["passivity_min_j"] > -1e-3  # the coupling never gave the hand energy
+    assert result.ticks > 0
 
 
 # -- robustness
