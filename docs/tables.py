@@ -434,38 +434,50 @@ def bc_results() -> str:
             if r is None:
                 continue
             time = f"{r['median_time_to_success_s']:.1f}" if r["median_time_to_success_s"] is not None else "-"
-            rows.append([task, kind, f"{r['demonstrations']} of {r['demonstrations_collected']}",
+            rounds = f", DAgger x {r['dagger_rounds']}" if r["dagger_rounds"] else ""
+            rows.append([task, kind, f"chunks of {r['chunk']}{rounds}",
+                         f"{r['demonstrations']} of {r['demonstrations_collected']}", f"{r['env_steps']:,}",
                          f"**{_percent(r['success_rate'])}**", time, f"{r['median_path_length_m']:.2f}",
-                         f"{r['median_peak_force_n']:.1f}", f"{r['median_safety_cost']:.2f}",
-                         f"{r['train_cpu_s'] / 60:.1f}"])
-    header = ["task", "observations", "demonstrations cloned", f"success, seeds {first}-{last}",
-              "median time to success (s)", "median path length (m)", "median peak tool force (N)",
-              "median safety cost", "training (CPU min)"]
+                         f"{r['median_peak_force_n']:.1f}", f"{(r['train_cpu_s'] + r['dagger_cpu_s']) / 60:.0f}",
+                         f"{r['policy_bytes'] / 1024:.0f}"])
+    header = ["task", "observations", "method", "demonstrations cloned", "environment steps",
+              f"success, seeds {first}-{last}", "median time to success (s)", "median path length (m)",
+              "median peak tool force (N)", "training and DAgger (CPU min)", "policy file (kB)"]
     return _rows(header, rows)
 
 
 def bc_variants() -> str:
-    rows = []
+    runs: dict[str, list[dict]] = {}
     for v in _json("learning/bc_variants.json")["variants"]:
+        runs.setdefault((v["run"], v["temporal_ensemble_m"]), []).append(v)
+    rows = []
+    for (_, m), rounds in sorted(runs.items(), key=lambda item: (item[1][0]["task"], item[0])):
+        v = rounds[0]
         first, last = v["eval_seeds"]
-        noise = f", DART noise {v['action_noise']:g}" if v["action_noise"] else ""
-        rows.append([f"{v['demonstrations']} of {v['demonstrations_collected']}{noise}", v["inputs"], v["target"],
-                     f"{_percent(v['success_rate'])} ({first}-{last})"])
-    return _rows(["demonstrations cloned", "inputs", "target", "success (seeds)"], rows)
+        decay = "" if v["final_learning_rate"] == 1e-3 else f", rate to {v['final_learning_rate']:g}"
+        inputs = "state, clock" + (", previous command" if v["previous_command"] else "")
+        if v.get("extra_inputs"):
+            inputs += f"; {v['extra_inputs']}"
+        successes = " → ".join(_percent(r["success_rate"]) for r in sorted(rounds, key=lambda r: r["dagger_rounds"]))
+        rows.append([v["task"], str(v["demonstrations"]), inputs, str(v["chunk"]), f"{m:g}",
+                     "the command" if v["target"] == "action" else "its change", f"{v['updates']:,}{decay}",
+                     f"{successes} ({first}-{last})"])
+    return _rows(["task", "demonstrations", "inputs", "chunk", "ensembling m", "target", "updates",
+                  "success, after each DAgger round (seeds)"], rows)
 
 
 def rl_curve() -> str:
     record = _json("learning/rl_grasp_lift.json")
-    rows = [[f"{c['env_steps']:,}", f"{c['core_hours']:.2f}", _percent(c["success_rate"]), f"{c['mean_return']:.0f}"]
+    rows = [[f"{c['env_steps']:,}", f"{c['core_hours']:.2f}", _percent(c["success_rate"]), f"{c['mean_return']:.2f}"]
             for c in record["curve"]]
     final = record.get("final")
     if final is not None:
         first, last = record["final_seeds"]
         rows.append([f"**{record['train_env_steps']:,} (end)**", f"**{record['train_core_hours']:.2f}**",
-                     f"**{_percent(final['success_rate'])}** on {first}-{last}", f"{final['mean_return']:.0f}"])
+                     f"**{_percent(final['success_rate'])}** on {first}-{last}", f"{final['mean_return']:.2f}"])
     for name, reference in record.get("references_on_eval_seeds", {}).items():
         label = "the scripted policy" if name == "scripted" else "uniform random actions"
-        rows.append([f"*{label}*", "-", _percent(reference["success_rate"]), f"{reference['mean_return']:.0f}"])
+        rows.append([f"*{label}*", "-", _percent(reference["success_rate"]), f"{reference['mean_return']:.2f}"])
     first, last = record["eval_seeds"]
     return _rows(["environment steps", "CPU core-hours", f"success, seeds {first}-{last}", "mean return"], rows)
 

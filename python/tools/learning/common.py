@@ -128,6 +128,12 @@ def curve_figure(record: dict, path: pathlib.Path) -> None:
         axes[0, column].plot(x, [100.0 * c["success_rate"] for c in curve], marker="o")
         axes[0, column].set_ylim(-5, 105)
         axes[1, column].plot(x, [c["mean_return"] for c in curve], marker="o", color="C1", label="PPO")
+        for number, attempt in enumerate(record.get("attempts", [])):  # earlier runs, thin and dashed
+            xs = [c[key] for c in attempt["curve"]]
+            style = dict(marker=".", linestyle=":", linewidth=1, color=f"C{4 + number}")
+            axes[0, column].plot(xs, [100.0 * c["success_rate"] for c in attempt["curve"]], **style)
+            axes[1, column].plot(xs, [c["mean_return"] for c in attempt["curve"]],
+                                 label=f"attempt {number + 1}: {attempt['start'].split('(')[0].split(',')[0].strip()}", **style)
         for name, reference in record.get("references_on_eval_seeds", {}).items():
             axes[1, column].axhline(reference["mean_return"], linestyle="--", color="C2" if name == "scripted" else "C3",
                                     label=f"{name} ({100 * reference['success_rate']:.0f} % success)")
@@ -136,7 +142,7 @@ def curve_figure(record: dict, path: pathlib.Path) -> None:
             row.grid(alpha=0.3)
     axes[0, 0].set_ylabel(f"success on {count} unseen seeds (%)")
     axes[1, 0].set_ylabel("mean episode return")
-    axes[1, 1].legend(loc="lower right", fontsize=8)
+    axes[1, 1].legend(loc="center right", fontsize=7)
     figure.suptitle(f"{record['algorithm']} on {record['task']}")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
