@@ -697,15 +697,18 @@ def figure(record: dict, path: pathlib.Path) -> None:
                          color=f"C{colour}", label=f"{task} ({kind})")
             for axis, key in zip(axes, ("env_steps", "core_hours")):
                 axis.plot([c[key] for c in curve], [100.0 * c["success_rate"] for c in curve], **style)
+    from matplotlib.ticker import NullFormatter
+
     for axis, label in zip(axes, ("environment steps (demonstrations + DAgger's episodes)",
-                                  "CPU core-hours (collection, training, DAgger, curve evaluations)")):
+                                  "CPU core-hours (training, DAgger, the curve's evaluations)")):
         axis.set_xlabel(label)
         axis.set_xscale("log")
+        axis.xaxis.set_minor_formatter(NullFormatter())
         axis.grid(alpha=0.3)
     first, last = record["eval_seeds"]
     axes[0].set_ylabel("success on unseen seeds (%)")
     axes[0].set_ylim(-5, 105)
-    axes[1].legend(fontsize=7, loc="upper left")
+    axes[1].legend(fontsize=7, loc="center right")
     figure_.suptitle(f"Behaviour cloning: each DAgger round on seeds 2000-2019, the last on {first}-{last}")
     figure_.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
