@@ -234,7 +234,7 @@ def main(argv=None) -> int:
             base = policy_file.load(args.base)
             base.check_task(TASK)
         except policy_file.PolicyFileError as error:
-            parser.error(f"--base {args.base}: {error}")
+            parser.error(f"--base {error}")  # the error names the file
         seeds = base.meta["training"].get("demonstration_seeds", [0, 0])
         if seeds[1] >= first_unseen:
             parser.error(f"--base {args.base}: its demonstrations' seeds {seeds} reach the evaluation's")
