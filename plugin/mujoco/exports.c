@@ -97,6 +97,13 @@ VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out
   return 0;
 }
 
+/// Rebuild data `d`'s caches of intestine `instance` from model `m`'s config as
+/// it now is (vsc_intestine_reconfigure): after the config's values were
+/// rewritten in place. Returns 0, or -1 with a message in `error`.
+VSC_EXPORT int viscera_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* error, int error_size) {
+  return vsc_intestine_reconfigure(m, d, instance, error, error_size);
+}
+
 /// The stretch and bend stiffnesses (N/m) an intestine of rest length `length`
 /// (m) takes by default, as config.c derives them from the core's defaults (one
 /// material at any length): out = {stretch_stiffness, bend_stiffness}. Returns 0,

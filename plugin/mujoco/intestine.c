@@ -131,29 +131,46 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
 // Build this instance's caches for `m` and make them d's: the model's state
 // must be the size the config needs (an MJB saved with another config would
 // overflow it). Any stale entry at this address (a freed mjData) is released.
-// Returns the caches, or NULL with a warning.
-static intestine* install(const mjModel* m, mjData* d, int instance) {
-  char error[ERROR_SIZE];
+// Returns the caches, or NULL with `error` filled.
+static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, char* error) {
   intestine* it = intestine_create(m, instance, error);
-  if (!it) {
-    mju_warning("%s", error);
-    return NULL;
-  }
+  if (!it) return NULL;
   if (m->plugin_statenum[instance] != config_state_size(m, &it->config)) {
-    mju_warning("viscera.intestine: the model's state holds %d numbers, its config needs %d",
-                m->plugin_statenum[instance], config_state_size(m, &it->config));
+    snprintf(error, ERROR_SIZE, "viscera.intestine: the model's state holds %d numbers, its config needs %d",
+             m->plugin_statenum[instance], config_state_size(m, &it->config));
     intestine_free(it);
     return NULL;
   }
   void* replaced = vsc_registry_insert(d, instance, it);
   if (replaced == it) {  // registry out of memory
     intestine_free(it);
-    mju_warning("viscera.intestine: out of memory");
+    strcpy(error, "viscera.intestine: out of memory");
     return NULL;
   }
   intestine_free((intestine*)replaced);
   d->plugin_data[instance] = (uintptr_t)it;  // informative only
   return it;
+}
+
+// install_or_explain, the error as MuJoCo's warning.
+static intestine* install(const mjModel* m, mjData* d, int instance) {
+  char error[ERROR_SIZE];
+  intestine* it = install_or_explain(m, d, instance, error);
+  if (!it) mju_warning("%s", error);
+  return it;
+}
+
+int vsc_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* error, int error_size) {
+  char message[ERROR_SIZE];
+  int slot = -1;
+  if (instance < 0 || instance >= m->nplugin || !mjp_getPlugin("viscera.intestine", &slot) ||
+      m->plugin[instance] != slot) {
+    snprintf(error, (size_t)error_size, "viscera.intestine: plugin instance %d is not a viscera.intestine", instance);
+    return -1;
+  }
+  if (install_or_explain(m, d, instance, message)) return 0;
+  snprintf(error, (size_t)error_size, "%s", message);
+  return -1;
 }
 
 // The caches of this data, from the registry (never from d->plugin_data, which

@@ -21,4 +21,13 @@ void vsc_plugin_register_intestine(void);
 /// 0 if d has no caches for m (nothing written).
 int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count);
 
+/// Rebuild data `d`'s caches of intestine `instance` from model `m`'s config as
+/// it is now: for a model whose config values were rewritten in place (same
+/// lengths; plugin_attr) to start another episode without compiling. d's
+/// plugin_state is left as it is; mj_resetData then writes the new config's
+/// initial state. The old caches are freed. Returns 0, or -1 with a message in
+/// `error` (`error_size` bytes) if the config is invalid or the instance is not
+/// an intestine (the old caches are then kept).
+int vsc_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* error, int error_size);
+
 #endif  // VISCERA_PLUGIN_INTESTINE_H

@@ -77,6 +77,9 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_intestine_layout.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_layout.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
                                                                  ctypes.c_void_p]
+            _ctypes_library.viscera_intestine_reconfigure.restype = ctypes.c_int
+            _ctypes_library.viscera_intestine_reconfigure.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
+                                                                      ctypes.c_char_p, ctypes.c_int]
             _loaded = path
         return _loaded
 

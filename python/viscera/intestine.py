@@ -290,6 +290,49 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
     return found
 
 
+FIXED_WIDTH = "{: .16e}"  # every double in 23 characters, exactly: values rewritten in place keep their width
+
+
+def fixed_width_numbers(values: Any) -> str:
+    """`values` (numbers, any shape) as config text of a width set by their count alone (23
+    characters a number, round-tripping every double): a model compiled with such text can have
+    them rewritten in place (reconfigure)."""
+    return " ".join(map(FIXED_WIDTH.format, np.ravel(np.asarray(values, dtype=float)).tolist()))
+
+
+def reconfigure(model: mujoco.MjModel, data: mujoco.MjData, instance: int, config: Mapping[str, str]) -> None:
+    """Rewrite config keys of intestine `instance` in the compiled `model` in place, then rebuild
+    `data`'s plugin caches from them: another episode's tissue or start without compiling (about
+    a millisecond against a compile's 10). Each new value must have exactly the length of the
+    compiled one (fixed_width_numbers writes such text). `data`'s state is left as it is: call
+    mj_resetData next to start from the new config's initial shape. Other MjData of `model`
+    read the new config when they next build their caches (a copy, a reset of a new data).
+    A bad key, a value of another width or an invalid config raises ValueError naming it, and
+    leaves the model and the data as they were."""
+    names = attribute_names()
+    start = int(model.plugin_attradr[instance])
+    end = int(model.plugin_attradr[instance + 1]) if instance + 1 < model.nplugin else len(model.plugin_attr)
+    raw = model.plugin_attr[start:end]
+    values = bytes(raw).split(b"\0")
+    offsets = np.cumsum([0] + [len(v) + 1 for v in values])
+    before = raw.copy()
+    for key, text in config.items():
+        if key not in names:
+            raise ValueError(unknown_key_message(key))
+        index = names.index(key)
+        new = str(text).encode()
+        if len(new) != len(values[index]):
+            raise ValueError(f"config key {key!r}: the new value has {len(new)} characters, the compiled model holds "
+                             f"{len(values[index])}; compile it with text of the width you will write "
+                             "(viscera.intestine.fixed_width_numbers)")
+        raw[offsets[index]:offsets[index] + len(new)] = np.frombuffer(new, dtype=np.int8)
+    error = ctypes.create_string_buffer(512)
+    if _library.native().viscera_intestine_reconfigure(ctypes.c_void_p(model._address), ctypes.c_void_p(data._address),
+                                                        instance, error, len(error)):
+        raw[:] = before
+        raise ValueError(load_error_message(error.value.decode()))
+
+
 def intestine(model: mujoco.MjModel, name: str | None = None) -> Intestine:
     """The intestine called `name` (or the only one) of a compiled model."""
     found = intestines(model)

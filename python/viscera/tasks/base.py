@@ -34,13 +34,17 @@ Measurements record made anew after every control step and at every reset (dm_co
 after_step), each value computed once, when first read.
 
 Each episode (initialize_episode, from the task's RandomState: same seed, same episode, bit for
-bit) draws a settled start, tissue and tilt (scene.draw_episode), rebuilds the physics with them
-and the task's tools (a 12 ms compile), lets the bowel settle under the drawn tissue and tilt for
-SETTLE_S with the tools withdrawn, then restarts the clock at 0.
+bit) draws a settled start, tissue and tilt (scene.draw_episode) and sets them in the physics in
+place: the model is compiled once, from the template episode (scene.template_episode), with its
+numbers at fixed width, and each reset rewrites the bowel's config keys and the gravity and
+rebuilds the plugin's caches (viscera.intestine.reconfigure), with no compile and no settling.
+The episode starts from the bank's settled shape at rest, with the clock at 0; the drawn tissue
+and tilt act from its first step.
 """
 from __future__ import annotations
 
 import collections
+import dataclasses
 import functools
 import inspect
 import itertools
@@ -63,7 +67,6 @@ from viscera.tasks import scene as scene_module  # where a parameter is called s
 AXIS_SAMPLES = 100      # intestine axis points observed (3 cm apart on 3 m)
 MAX_AXIS_SAMPLES = 100_000
 GRID = 10               # target sampling points per side
-SETTLE_S = 0.5          # s the bowel settles under the drawn tissue and tilt before an episode
 JAW_OPEN_RAD = 0.2      # a jaw counts as open above this opening (rad; closed at or below 0.1)
 CLEAR_MARGIN = 0.01     # m: a tool is clear of the target outside it grown by this, or above CLEAR_HEIGHT
 CLEAR_HEIGHT = 0.05     # m above the posterior wall
@@ -85,6 +88,15 @@ class Physics(dm_mujoco.Physics):
         if cached is None or cached.model is not model:  # reload_from_* replaces the model
             cached = self._intestine = viscera.intestines(model)[0]
         return cached
+
+    def reconfigure_bowel(self, config: dict[str, str]) -> None:
+        """Rewrite the bowel's config keys in place (viscera.intestine.reconfigure: values of the
+        compiled width) and forget the intestine record read from the old ones."""
+        gut = self.intestine()
+        viscera.reconfigure(self.model.ptr, self.data.ptr, gut.instance, config)
+        # the record as intestines() would read it again: only the config and the mass can change
+        self._intestine = dataclasses.replace(gut, config={**gut.config, **config},
+                                              mass=float(config["mass"]) if "mass" in config else gut.mass)
 
     def wall_height(self, x: float, y: float) -> float | None:
         """The posterior wall's height (m) at (x, y) (m) where it is a heightfield geom called
@@ -475,7 +487,7 @@ class BowelTask(base.Task):
             raise ValueError(f"camera = {camera.camera!r}: the task's scene has no such camera; it has "
                              f"{list(physics.named.model.cam_fovy.axes.row.names)}")
         self.camera = camera
-        physics.reload_from_xml_string(self.scene_xml(self.episode))
+        physics.reload_from_xml_string(self.model_xml())
 
     def initialize_episode(self, physics: Physics) -> None:
         self.episode = scene.draw_episode(self.random, scene=self.scene.name) if self.randomize else None
@@ -486,24 +498,39 @@ class BowelTask(base.Task):
         super().initialize_episode(physics)  # dm_control's: calls after_step
 
     def prepare(self, physics: Physics) -> None:
-        """Rebuild the physics for this episode, settle it, then draw the task's own details; a
-        task whose details are in the model (a marked band's colour) is built once more with
-        them, its settled state kept."""
-        physics.reload_from_xml_string(self.scene_xml(self.episode))
+        """Set this episode in the physics in place (start_episode), the task's own details drawn
+        on its start (the marked band, a model value, set with the rest), then aim the
+        laparoscope and ready the tools."""
         if not self.randomize:
-            return
-        self.settle(physics)
-        self.draw(physics)
-        if self.intestine_config():  # the marked band (drawing only; draw_capsules is in the first build)
-            model, data = physics.model.ptr, physics.data.ptr
-            full = mujoco.mjtState.mjSTATE_FULLPHYSICS
-            state = np.empty(mujoco.mj_stateSize(model, full))
-            mujoco.mj_getState(model, data, state, full)
-            physics.reload_from_xml_string(self.scene_xml(self.episode))
-            mujoco.mj_setState(physics.model.ptr, physics.data.ptr, state, full)
-            mujoco.mj_forward(physics.model.ptr, physics.data.ptr)
+            return  # the shipped scene, as built; dm_control's reset_context has reset it
+        self.start_episode(physics)
         physics.aim_laparoscope(self.view_point(physics))
         self.ready_tools(physics)
+
+    def model_xml(self) -> str:
+        """The MJCF the physics is compiled from, once: the template episode's (scene.template_episode)
+        at fixed width when episodes are randomised, each reset then setting its own in place; the
+        shipped scene's otherwise."""
+        return self.scene_xml(scene.template_episode(self.scene.name) if self.randomize else None)
+
+    def start_episode(self, physics: Physics) -> None:
+        """This episode in place: its gravity (model.opt); its start, read by the task's `draw`;
+        the bowel's start, tissue and task keys (the marked band) and the other intestines'
+        starts, config keys rewritten in the compiled model (viscera.intestine.reconfigure); then
+        MuJoCo's reset: the bank's settled start at rest, the tools withdrawn, the clock at 0. No
+        compile and no settling: the drawn tissue and tilt act from the episode's first step."""
+        model, data = physics.model.ptr, physics.data.ptr
+        model.opt.gravity[:] = self.episode.gravity
+        gut = physics.intestine()
+        state = data.plugin_state[model.plugin_stateadr[gut.instance]:]
+        state[gut.layout["positions"]] = self.episode.control_points.ravel()  # what draw reads: the start
+        self.draw(physics)
+        physics.reconfigure_bowel({**scene.episode_config(self.episode, gut.rest_length), **self.intestine_config()})
+        for name, points in self.episode.others.items():
+            instance = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, name)
+            viscera.reconfigure(model, data, instance, {"points": viscera.fixed_width_numbers(points)})
+        mujoco.mj_resetData(model, data)
+        mujoco.mj_forward(model, data)
 
     def ready_tools(self, physics: Physics) -> None:
         """Every tool at a working depth in the laparoscope's view, as trainers start, its jaws
@@ -554,17 +581,6 @@ class BowelTask(base.Task):
             data.qvel[model.jnt_dofadr[joint]] = 0.0
             data.ctrl[model.actuator(f"{tool}_{coordinate}").id] = value
         mujoco.mj_forward(model, data)
-
-    def settle(self, physics: Physics) -> None:
-        """SETTLE_S s with the tools withdrawn and their jaws open, then the clock back to 0."""
-        model, data = physics.model.ptr, physics.data.ptr
-        data.ctrl[:] = 0.0
-        for grasper in physics.graspers():  # jaws open: a withdrawn jaw must not take a loop as it settles
-            data.ctrl[model.actuator(f"{grasper}_jaw").id] = model.actuator(f"{grasper}_jaw").ctrlrange[1]
-        for _ in range(int(round(SETTLE_S / model.opt.timestep))):
-            mujoco.mj_step(model, data)
-        data.time = 0.0
-        data.qvel[:] = 0.0  # the tools' joints rest; the bowel keeps its own state (plugin_state)
 
     def view_point(self, physics: Physics) -> np.ndarray:
         """Where the laparoscope looks this episode (m): the target's centre; a task without one
@@ -691,9 +707,11 @@ def spot_on_ray(eye, ray, axis: np.ndarray, clearance: float, step: float = 0.00
     still `clearance` (m) above the bowel's axis (`axis`, m) within that clearance horizontally,
     and every point before it too; None if the line meets the bowel, or the floor, sooner than 5 cm."""
     points = eye + (0.05 + step * np.arange(int(reach / step)))[:, None] * ray  # (k, 3)
+    low, high = points[:, :2].min(axis=0) - clearance, points[:, :2].max(axis=0) + clearance
+    axis = axis[np.all((axis[:, :2] >= low) & (axis[:, :2] <= high), axis=1)]  # the rest is never within clearance
     dx = points[:, 0, None] - axis[None, :, 0]
     dy = points[:, 1, None] - axis[None, :, 1]
-    tops = np.where(dx * dx + dy * dy < clearance * clearance, axis[None, :, 2], -np.inf).max(axis=1)
+    tops = np.where(dx * dx + dy * dy < clearance * clearance, axis[None, :, 2], -np.inf).max(axis=1, initial=-np.inf)
     blocked = (points[:, 2] < clearance) | (tops > points[:, 2] - clearance)
     first = int(np.argmax(blocked)) if blocked.any() else len(points)
     return points[first - 1] if first > 0 else None
@@ -784,7 +802,7 @@ def build(task_class: type[BowelTask], seed: int | None = None, time_limit: floa
     task.control_timestep_s = control_timestep
     time_limit = task.TIME_LIMIT_S if time_limit is None else time_limit
     task.reward_kind = reward
-    physics = Physics.from_xml_string(task.scene_xml(None))
+    physics = Physics.from_xml_string(task.model_xml())
     env = Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
     task.contract = reward_module.Contract.of(task.TIME_LIMIT_S, time_limit, control_timestep)
     return env

@@ -26,6 +26,8 @@ import math
 
 import numpy as np
 
+import viscera
+
 from viscera.tasks import base
 from viscera.tasks.base import Physics
 from viscera.tasks.policies import GraspLiftPolicy
@@ -54,7 +56,7 @@ class GraspLift(base.BowelTask):
         self.band = (1.5 - BAND_M / 2, 1.5 + BAND_M / 2)  # m along the rest axis: drawn per episode
 
     def intestine_config(self) -> dict[str, str]:
-        return {"marked_band": f"{self.band[0]:.6f} {self.band[1]:.6f}"}
+        return {"marked_band": viscera.fixed_width_numbers(self.band)}  # rewritten in place each episode
 
     def draw(self, physics: Physics) -> None:
         length = physics.intestine().rest_length

@@ -32,6 +32,8 @@ import math
 
 import numpy as np
 
+import viscera
+
 from viscera.tasks import base
 from viscera.tasks.base import Physics
 from viscera.tasks.policies import RunTheBowelPolicy
@@ -66,7 +68,7 @@ class RunTheBowel(base.BowelTask):
         self.counted: list[float | None] = [None] * len(self.TOOLS)  # per jaw: its counted hold (m)
 
     def intestine_config(self) -> dict[str, str]:
-        return {"marked_band": f"{self.mark - MARK_M / 2:.6f} {self.mark + MARK_M / 2:.6f}"}
+        return {"marked_band": viscera.fixed_width_numbers((self.mark - MARK_M / 2, self.mark + MARK_M / 2))}
 
     def initialize_episode(self, physics: Physics) -> None:
         self._reset_run()

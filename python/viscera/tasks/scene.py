@@ -34,7 +34,7 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
-from viscera.intestine import default_stiffnesses
+from viscera.intestine import default_stiffnesses, fixed_width_numbers
 
 HERE = pathlib.Path(__file__).resolve()
 SOURCE_SCENES = HERE.parents[3] / "assets" / "scenes"   # the source tree
@@ -179,6 +179,33 @@ def tissue_config(length: float, mass: float, stiffness_scale: float, friction: 
     return {key: f"{value:.6g}" for key, value in values.items()}
 
 
+def episode_config(episode: Episode, length: float) -> dict[str, str]:
+    """The config keys of `episode`'s bowel (of rest length `length` m): its settled start and its
+    tissue (tissue_config's keys, unrounded), every number at fixed width
+    (viscera.intestine.fixed_width_numbers), so that a model compiled with one episode's keys
+    takes another's in place (viscera.intestine.reconfigure) instead of compiling again."""
+    stretch, bend = default_stiffnesses(length)
+    values = {"points": episode.control_points, "mass": episode.mass,
+              "stretch_stiffness": stretch * episode.stiffness_scale, "bend_stiffness": bend * episode.stiffness_scale,
+              "friction": episode.friction, "self_friction": episode.self_friction,
+              "mesentery_stiffness": episode.mesentery_stiffness, "mesentery_length": episode.mesentery_length}
+    return {key: fixed_width_numbers(value) for key, value in values.items()}
+
+
+def template_episode(scene: str = DEFAULT_SCENE) -> Episode:
+    """The episode a task's model is compiled with before its first reset (the bank's first start,
+    each tissue range's middle, a level table): every episode is then set in place over it."""
+    bank = _bank(scene_named(scene).starts)
+    middle = lambda bounds: 0.5 * (bounds[0] + bounds[1])  # noqa: E731
+    return Episode(
+        others={key[:-len("_control_points")]: points[0] for key, points in bank.items()
+                if key.endswith("_control_points")},
+        start=0, control_points=bank["control_points"][0], mass=middle(MASS_PER_LENGTH) * bowel_length(scene),
+        stiffness_scale=middle(STIFFNESS_SCALE), friction=middle(FRICTION), self_friction=middle(SELF_FRICTION),
+        mesentery_stiffness=middle(MESENTERY_STIFFNESS), mesentery_length=middle(MESENTERY_LENGTH),
+        tilt_deg=0.0, tilt_azimuth_deg=0.0)
+
+
 def tissue_corners(length: float = 3.0) -> dict[str, dict[str, str]]:
     """The ends of every tissue range above, as the intestine config keys of a `length` m bowel:
     2 x 2 x 2 corners named mass_springs_grip, light or heavy, soft or stiff (both spring scales),
@@ -264,16 +291,13 @@ def compose(tools: tuple[Tool, ...], episode: Episode | None = None, target: tup
     _config(instance, "grasp_sites", " ".join(f"{name}_tip" for name in graspers) or None)
     _config(instance, "grasp_joints", " ".join(f"{name}_jaw" for name in graspers) or None)
     if episode is not None:
-        root.find("option").set("gravity", _numbers(episode.gravity))
-        _config(instance, "points", _numbers(episode.control_points))
+        root.find("option").set("gravity", fixed_width_numbers(episode.gravity))  # as start_episode sets it
         for other in root.findall("extension/plugin/instance")[1:]:
             if other.get("name") in episode.others:
                 _config(other, "shape", "control_points")
-                _config(other, "points", _numbers(episode.others[other.get("name")]))
+                _config(other, "points", fixed_width_numbers(episode.others[other.get("name")]))
         length = float(next(c.get("value") for c in instance.findall("config") if c.get("key") == "length"))
-        for key, value in tissue_config(length, episode.mass, episode.stiffness_scale, episode.friction,
-                                        episode.self_friction, episode.mesentery_stiffness,
-                                        episode.mesentery_length).items():
+        for key, value in episode_config(episode, length).items():
             _config(instance, key, value)
     for key, value in (intestine_config or {}).items():
         _config(instance, key, value)
