@@ -54,18 +54,56 @@ VSC_EXPORT int viscera_spline_basis(int n, int count, const double* s, int* firs
 /// `count` abscissae s (in [0, 1]), into out (m, count x 3): each the four
 /// basis terms summed in order, ((w0 q0 + w1 q1) + w2 q2) + w3 q3, the same
 /// bits as that sum in numpy. Returns 0, or -1 if n < 4.
+// Coordinate c of the spline point at basis window b: the four terms summed in order.
+static double spline_coordinate(const double* q, vsc_basis b, int c) {
+  const double* p = q + 3 * b.first;
+  double sum = b.weight[0] * p[c] + b.weight[1] * p[3 + c];
+  sum += b.weight[2] * p[6 + c];
+  return sum + b.weight[3] * p[9 + c];
+}
+
 VSC_EXPORT int viscera_spline_points(int n, const double* q, int count, const double* s, double* out) {
   if (n < 4) return -1;
   for (int i = 0; i < count; ++i) {
     vsc_basis b = vsc_spline_basis(n, s[i]);
-    const double* p = q + 3 * b.first;
-    for (int c = 0; c < 3; ++c) {
-      double sum = b.weight[0] * p[c] + b.weight[1] * p[3 + c];
-      sum += b.weight[2] * p[6 + c];
-      out[3 * i + c] = sum + b.weight[3] * p[9 + c];
-    }
+    for (int c = 0; c < 3; ++c) out[3 * i + c] = spline_coordinate(q, b, c);
   }
   return 0;
+}
+
+/// Which cells of a grid in the xy plane an n-point spline's tube lies over, as the tasks
+/// measure a target's coverage (viscera.tasks.base.grid_under_tube, the same booleans): the
+/// axis at `count` abscissae s (as viscera_spline_points); the samples outside the grid's
+/// bounds grown by `radius` (m) skipped; a cell (xs[i], ys[j]) (m) covered when a sample's
+/// dx * dx + dy * dy (m^2, dx = cell - sample, each product rounded, no fused multiply-add)
+/// is at most `radius_squared`. out[j * nx + i] = 1.0 or 0.0 (meshgrid's order: rows of y).
+/// Returns the covered count, or -1 if n < 4 or the grid is empty.
+VSC_EXPORT int viscera_grid_under_axis(int n, const double* q, int count, const double* s, int nx, const double* xs,
+                                       int ny, const double* ys, double radius, double radius_squared, double* out) {
+  if (n < 4 || nx < 1 || ny < 1) return -1;
+  double low_x = xs[0], high_x = xs[0], low_y = ys[0], high_y = ys[0];
+  for (int i = 1; i < nx; ++i) low_x = fmin(low_x, xs[i]), high_x = fmax(high_x, xs[i]);
+  for (int j = 1; j < ny; ++j) low_y = fmin(low_y, ys[j]), high_y = fmax(high_y, ys[j]);
+  low_x -= radius, high_x += radius, low_y -= radius, high_y += radius;
+  for (int k = 0; k < nx * ny; ++k) out[k] = 0.0;
+  int covered = 0;
+  for (int k = 0; k < count; ++k) {
+    vsc_basis b = vsc_spline_basis(n, s[k]);
+    double x = spline_coordinate(q, b, 0), y = spline_coordinate(q, b, 1);
+    if (!(x >= low_x && x <= high_x && y >= low_y && y <= high_y)) continue;
+    for (int j = 0; j < ny; ++j) {
+      double dy = ys[j] - y, dy2 = dy * dy;
+      if (dy2 > radius_squared) continue;  // dx * dx >= 0 cannot bring the sum back down
+      for (int i = 0; i < nx; ++i) {
+        double dx = xs[i] - x;
+        if (out[j * nx + i] == 0.0 && dx * dx + dy2 <= radius_squared) {
+          out[j * nx + i] = 1.0;
+          ++covered;
+        }
+      }
+    }
+  }
+  return covered;
 }
 
 // The config of plugin instance `instance` if it is a viscera.intestine

@@ -6,12 +6,14 @@
 Per task, the scripted policy plays `steps` control steps of the episode `seed` once, and every
 control step's actuator targets (what the task's before_step writes into ctrl) are kept. Then, in
 each run, alternated:
-- env: a reset, then the same actions through `env.step` (the task's before_step, the physics,
-  after_step's measurements, condition and reward, and the observation), timing the steps;
+- env: the episode `seed` reset again (the task reseeded), then the same actions through
+  `env.step` (the task's before_step, the physics, after_step's measurements, condition and
+  reward, and the observation), timing the steps;
 - bare: the same start state, then per step the kept ctrl and the control step's `mj_step` calls
   alone: the physics of the same control steps, nothing of the task.
 - reset: `env.reset()` alone.
-The ratios are medians over runs of env / bare, and of a reset over one mean env step. The goals
+Both end in the same state, bit for bit (`same_final_state` in the JSON): they time the same
+physics. The ratios are medians over runs of env / bare, and of a reset over one mean env step. The goals
 (issue 41): a step at most 1.3x its physics, a reset at most the time of 10 steps.
 """
 
@@ -57,24 +59,39 @@ def play(task: str, seed: int, steps: int):
     return env, start, actions, controls
 
 
-def time_env(env, actions) -> float:
+def final_state(env) -> bytes:
+    model, data = env.physics.model.ptr, env.physics.data.ptr
+    state = np.empty(mujoco.mj_stateSize(model, FULL))
+    mujoco.mj_getState(model, data, state, FULL)
+    return state.tobytes()
+
+
+def time_env(env, seed: int, actions) -> tuple[float, bytes]:
+    """The episode `seed` again (reseeded: a reset draws the next episode otherwise), its actions
+    through env.step; the time and the final state."""
+    viscera.tasks.reseed(env, seed)
     env.reset()
     begin = time.perf_counter()
     for action in actions:
         env.step(action)
-    return time.perf_counter() - begin
+    return time.perf_counter() - begin, final_state(env)
 
 
-def time_bare(env, start, controls) -> float:
+def time_bare(env, seed: int, start, controls) -> tuple[float, bytes]:
+    """The episode `seed`'s model (reseeded and reset: the model holds the last reset's episode)
+    from its start state, the kept ctrl and mj_step alone; the time and the final state."""
+    viscera.tasks.reseed(env, seed)
+    env.reset()
     model, data = env.physics.model.ptr, env.physics.data.ptr
     substeps = int(round(env.control_timestep() / model.opt.timestep))
     mujoco.mj_setState(model, data, start, FULL)
+    mujoco.mj_forward(model, data)
     begin = time.perf_counter()
     for ctrl in controls:
         data.ctrl[:] = ctrl
         for _ in range(substeps):
             mujoco.mj_step(model, data)
-    return time.perf_counter() - begin
+    return time.perf_counter() - begin, final_state(env)
 
 
 def time_reset(env) -> float:
@@ -86,14 +103,20 @@ def time_reset(env) -> float:
 def measure(task: str, seed: int, steps: int, runs: int, bar) -> dict:
     env, start, actions, controls = play(task, seed, steps)
     ratios, resets, env_ms, bare_ms = [], [], [], []
-    for _ in range(runs):
-        env_s, bare_s, reset_s = time_env(env, actions), time_bare(env, start, controls), time_reset(env)
+    same = True
+    for run in range(runs):
+        if run % 2:  # which goes first alternates: neither always finds the caches the other warmed
+            (bare_s, bare_end), (env_s, env_end) = time_bare(env, seed, start, controls), time_env(env, seed, actions)
+        else:
+            (env_s, env_end), (bare_s, bare_end) = time_env(env, seed, actions), time_bare(env, seed, start, controls)
+        same = same and env_end == bare_end  # the same physics, or the ratio compares two episodes
+        reset_s = time_reset(env)
         ratios.append(env_s / bare_s)
         resets.append(reset_s / (env_s / len(actions)))
         env_ms.append(1e3 * env_s / len(actions))
         bare_ms.append(1e3 * bare_s / len(actions))
         bar.update()
-    return {"steps": len(actions), "step_over_physics": statistics.median(ratios),
+    return {"steps": len(actions), "same_final_state": same, "step_over_physics": statistics.median(ratios),
             "step_over_physics_runs": [round(r, 3) for r in ratios],
             "reset_over_step": statistics.median(resets), "reset_over_step_runs": [round(r, 1) for r in resets],
             "env_step_ms": statistics.median(env_ms), "physics_step_ms": statistics.median(bare_ms),

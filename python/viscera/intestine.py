@@ -77,6 +77,26 @@ def spline_points(control_points: np.ndarray, abscissae: np.ndarray) -> np.ndarr
     return points
 
 
+def grid_under_axis(control_points: np.ndarray, samples: int, xs: np.ndarray, ys: np.ndarray,
+                    radius: float) -> np.ndarray:
+    """Which cells of the grid (xs[i], ys[j]) (m, in the xy plane) the tube of `radius` (m) around
+    the Catmull-Rom axis lies over, the axis read at `samples` uniform abscissae: 1.0 where one
+    lies within the radius of the cell, else 0.0, in meshgrid's order (rows of y), shape
+    (len(ys) * len(xs),). In the plugin (one call): the same booleans as testing the
+    axis_points(samples) in numpy (viscera.tasks.base.grid_under_tube)."""
+    q = np.ascontiguousarray(control_points, dtype=np.float64).reshape(-1, 3)
+    xs = np.ascontiguousarray(xs, dtype=np.float64)
+    ys = np.ascontiguousarray(ys, dtype=np.float64)
+    if q.shape[0] < 4:
+        raise ValueError(f"a Catmull-Rom axis needs at least 4 control points, got {q.shape[0]}")
+    s = _uniform(samples)
+    out = np.empty(len(xs) * len(ys))
+    _library.native().viscera_grid_under_axis(q.shape[0], q.ctypes.data, s.size, s.ctypes.data, len(xs), xs.ctypes.data,
+                                              len(ys), ys.ctypes.data, float(radius), float(radius) ** 2,
+                                              out.ctypes.data)
+    return out
+
+
 _UNIFORM: dict[int, np.ndarray] = {}  # count -> its abscissae (read-only, shared between calls)
 
 

@@ -682,6 +682,36 @@ def run(task: str, kind: str, root: pathlib.Path, demos: int, method: Method, ev
     return result_record
 
 
+REEVALUATED = ("success_rate", "succeeded_seeds", "mean_return", "median_time_to_success_s",
+               "median_path_length_m", "median_peak_force_n", "median_safety_cost")
+
+
+def reevaluate(out: pathlib.Path, tasks, kinds, why: str, workers: int) -> int:
+    """The committed policies of `tasks` and `kinds` in the record `out`, evaluated again through
+    their files on their evaluation seeds: each entry's results replaced, the previous ones kept
+    in its `reevaluations` (oldest first) with `why` and the date, and the figure redrawn."""
+    record = json.loads(out.read_text())
+    for task in tasks:
+        for kind in kinds:
+            entry = record["results"].get(task, {}).get(kind)
+            if entry is None:
+                continue
+            first, last = entry["eval_seeds"]
+            clock = common.Clock()
+            result = evaluate(pathlib.Path(entry["policy_file"]), range(first, last + 1), workers)
+            lap = clock.lap()
+            before = {key: entry[key] for key in REEVALUATED if key in entry}
+            entry.setdefault("reevaluations", []).append(
+                {"why": why, "date": time.strftime("%Y-%m-%d"), "before": before})
+            entry.update({key: result[key] for key in REEVALUATED if key in result},
+                         eval_wall_s=lap["wall_s"], eval_cpu_s=lap["cpu_s"])
+            print(f"{task} {kind}: success {before['success_rate']:.2f} before, {entry['success_rate']:.2f} now "
+                  f"({len(entry['succeeded_seeds'])} of {last - first + 1} seeds)", flush=True)
+            out.write_text(json.dumps(record, indent=1) + "\n")
+    figure(record, out.with_suffix(".png"))
+    return 0
+
+
 def figure(record: dict, path: pathlib.Path) -> None:
     """Each policy's success on unseen seeds after each DAgger round, against the environment
     steps (demonstrations and the learner's own episodes) and the CPU core-hours spent so far."""
@@ -748,7 +778,13 @@ def main(argv=None) -> int:
     parser.add_argument("--policies", type=pathlib.Path, default=POLICIES,
                         help=f"where the policy files go, TASK_KIND.npz (default {POLICIES})")
     parser.add_argument("--out", type=pathlib.Path, default=OUT, help=f"the results JSON (default {OUT})")
+    parser.add_argument("--reevaluate", metavar="WHY",
+                        help="train nothing: evaluate the committed policy files of --tasks and --observations "
+                             "again on their evaluation seeds after a change of the tasks (WHY names it), keeping "
+                             "the previous result beside the new one")
     args = parser.parse_args(argv)
+    if args.reevaluate:
+        return reevaluate(args.out, args.tasks, args.observations, args.reevaluate, args.workers)
     given = {"state": args.demos_state, "pixels": args.demos_pixels}
     demos = {kind: {task: given[kind] or DEMOS[kind][task] for task in TASKS} for kind in DEMOS}
     most = max(count for kind in args.observations for count in demos[kind].values())

@@ -59,6 +59,7 @@ from dm_control.suite import base
 
 import viscera
 from viscera.checks import checked_integer
+from viscera.intestine import grid_under_axis
 from viscera.numerics import dot, norm
 from viscera.tasks import reward as reward_module  # where a parameter is called reward
 from viscera.tasks import scene
@@ -147,7 +148,8 @@ class Physics(dm_mujoco.Physics):
         cached = getattr(self, "_target_points", None)
         if cached is None or cached[0] != key:  # the target moves only between episodes
             u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
-            x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
+            self._target_grid = centre[0] + u * half[0], centre[1] + u * half[1]  # columns' x, rows' y
+            x, y = np.meshgrid(*self._target_grid)
             cached = self._target_points = key, np.stack([x.ravel(), y.ravel(), np.full(GRID * GRID, centre[2])], axis=1)
         return cached[1].copy()
 
@@ -159,9 +161,15 @@ class Physics(dm_mujoco.Physics):
     def coverage(self, points: np.ndarray | None = None, axis: np.ndarray | None = None) -> np.ndarray:
         """1 where the tube lies over a target point (within one radius in the wall's plane);
         `points` (m, (k, 2)) instead of the target's, `axis` the dense_axis if already measured."""
-        target = self.target_points()[:, :2] if points is None else points
+        gut = self.intestine()
+        if points is None:  # the target's grid
+            self.target_points()
+            xs, ys = self._target_grid
+            if axis is None:  # in the plugin, one call: the same booleans as grid_under_tube on the dense axis
+                return grid_under_axis(gut.positions(self.data.ptr), 4 * gut.sphere_count, xs, ys, gut.radius)
+            return grid_under_tube(xs, ys, axis[:, :2], gut.radius).astype(float)
         axis = self.dense_axis() if axis is None else axis
-        return cells_under_tube(target, axis[:, :2], self.intestine().radius).astype(float)
+        return cells_under_tube(points, axis[:, :2], gut.radius).astype(float)
 
     def uncovered_fraction(self) -> float:
         return float(1.0 - self.coverage().mean())
@@ -319,6 +327,22 @@ class ToolIndex:
         return self._jaws[graspers]
 
 
+def grid_under_tube(xs: np.ndarray, ys: np.ndarray, axis: np.ndarray, radius: float) -> np.ndarray:
+    """cells_under_tube of the grid of cells (xs[i], ys[j]) (m; in meshgrid's order, y major), the
+    same booleans from the same sums: the squares of the x and y offsets are each computed once
+    per column and row, not once per cell."""
+    low = np.array([xs.min(), ys.min()]) - radius
+    high = np.array([xs.max(), ys.max()]) + radius
+    x, y = axis[:, 0], axis[:, 1]
+    near = axis[(x >= low[0]) & (x <= high[0]) & (y >= low[1]) & (y <= high[1])]  # the rest cannot cover
+    if not len(near):
+        return np.zeros(len(xs) * len(ys), dtype=bool)
+    dx = xs[:, None] - near[None, :, 0]
+    dy = ys[:, None] - near[None, :, 1]
+    squared = (dy * dy)[:, None, :] + (dx * dx)[None, :, :]  # [row, column, axis point]: dx^2 + dy^2
+    return (squared.min(axis=2) <= radius ** 2).ravel()
+
+
 def cells_under_tube(cells: np.ndarray, axis: np.ndarray, radius: float) -> np.ndarray:
     """Which `cells` (m, (m, 2)) a tube of `radius` (m) lies over: an `axis` point (m, (n, 2))
     within the radius of the cell in the wall's plane."""
@@ -359,8 +383,9 @@ class Measurements:
 
     @functools.cached_property
     def coverage(self) -> np.ndarray:
-        """The target's GRID x GRID points, 1 where the tube lies over one: Physics.coverage."""
-        return self.physics.coverage(axis=self.dense_axis)
+        """The target's GRID x GRID points, 1 where the tube lies over one: Physics.coverage (from
+        the dense axis if it was read, else in the plugin without it)."""
+        return self.physics.coverage(axis=self.__dict__.get("dense_axis"))
 
     @functools.cached_property
     def uncovered_fraction(self) -> float:
