@@ -1,6 +1,6 @@
 """What a learner pays for the task code: an environment's step and reset against the bare physics.
 
-    python python/tools/bench_env_step.py [--tasks clear_area grasp_lift ...] [--steps 400] [--runs 7]
+    python python/tools/bench_env_step.py [--tasks clear_area grasp_lift ...] [--steps 400] [--runs 10]
         [--seed 1000] [--json docs/bench/env_step.json]
 
 Per task, the scripted policy plays `steps` control steps of the episode `seed` once, and every
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python python/tools/bench_env_step.py", description=__doc__.split("\n")[0])
     parser.add_argument("--tasks", nargs="+", choices=viscera.tasks.ALL, default=list(viscera.tasks.ALL))
     parser.add_argument("--steps", type=int, default=400, help="control steps of the scripted episode timed")
-    parser.add_argument("--runs", type=int, default=7, help="alternated runs; medians are reported")
+    parser.add_argument("--runs", type=int, default=10, help="alternated runs; medians are reported")
     parser.add_argument("--seed", type=int, default=1000, help="the episode's seed")
     parser.add_argument("--json", default=str(OUT), help="where to write the results")
     args = parser.parse_args(argv)

@@ -283,26 +283,38 @@ def record(task: str, seed: int, policy: str, out: str, time_limit_s: float | No
     return play(task, seed, policy, time_limit_s, quiet, out, scene)[1]
 
 
-def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str | None, quiet: bool) -> dict:
+def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str | None, quiet: bool,
+           video: str | None = None) -> dict:
     import json
 
     from viscera import recording
+    from viscera import video as video_module
     try:
         made = recording.load(path)
     except recording.RecordingError as error:
         raise UserError(str(error)) from None
+    if video:
+        try:
+            video_module.check_encoder()
+        except video_module.VideoError as error:
+            raise UserError(str(error), status=2) from None
     on_step, score = _trace_and_score(made.task)
     show = None
     if viewer == "meshcat":
         on_step = _shown(on_step, made.control_timestep_s)
+    filmed = _filmed(on_step, video, made.control_timestep_s) if video else on_step
     try:
-        result = recording.replay(made, on_step=on_step, progress=not quiet and viewer is None)
+        result = recording.replay(made, on_step=filmed, progress=not quiet and viewer is None)
     except recording.RecordingError as error:
         raise UserError(f"{path}: {error}") from None
+    except video_module.VideoError as error:
+        raise UserError(str(error)) from None
     finally:
         show = getattr(on_step, "view", None)
         if show and show[0] is not None:
             show[0].close()
+        for part in getattr(filmed, "parts", ()):
+            part.close()
     if not result.matches(made):
         raise UserError(f"{path}: the replay ended in another state (sha256 {result.final_state_sha256[:16]}..., "
                         f"recorded {made.final_state_sha256[:16]}...); it was recorded with "
@@ -319,6 +331,10 @@ def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str 
         with open(json_out, "w") as f:
             json.dump(document, f, indent=1)
         print(f"score            {json_out}")
+    if video:
+        frames = filmed.parts[0].frames
+        print(f"video            {video} ({frames} frames, {1.0 / made.control_timestep_s:g} per second, "
+              f"{video_module.SIZE} x {video_module.SIZE})")
     if trajectory:
         for tool, spec in recording.trajectories(made).items():
             name = trajectory_file(trajectory, tool)
@@ -327,6 +343,21 @@ def replay(path: str, json_out: str | None, viewer: str | None, trajectory: str 
             print(f"trajectory       {name} ({len(spec['waypoints'])} waypoints)")
     print(recording.verdict(made.task, result.success), flush=True)
     return values
+
+
+def _filmed(on_step, path: str, control_timestep_s: float):
+    """on_step that also writes the laparoscope's view, with the overlay, as a frame of the video
+    at `path`, at the control rate (viscera.video); `.parts` are the writer and the frames, to close."""
+    from viscera import video
+    writer = video.VideoWriter(path, fps=1.0 / control_timestep_s)
+    frames = video.LaparoscopeFrames()
+
+    def step(env, time_step) -> None:
+        on_step(env, time_step)
+        writer.append(frames.frame(env))
+
+    step.parts = (writer, frames)
+    return step
 
 
 def trajectory_file(pattern: str, tool: str) -> str:
@@ -531,6 +562,9 @@ def build_parser() -> argparse.ArgumentParser:
     replay_parser.add_argument("--trajectory", type=cli.output_file(".json"),
                                help="write each tool's motion as a ToolTrajectory file: OUT.json gives "
                                "OUT_<tool>.json per tool")
+    replay_parser.add_argument("--video", type=cli.output_file(".mp4"),
+                               help="write the laparoscope's view with the overlay to this MP4, one frame per "
+                               "control step, at the recording's control rate (needs imageio-ffmpeg: the video extra)")
     replay_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     for command_parser in commands.choices.values():  # each command's last option, and its name for main
         command_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
@@ -559,7 +593,7 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "dataset":
             dataset(args)
         elif args.command == "replay":
-            replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet)
+            replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet, args.video)
         else:
             run(args.scene, args.duration, args.png, args.camera, args.quiet, args.viewer, args.record,
                 args.record_fps, args.host, args.hold, report=_print_summary)
