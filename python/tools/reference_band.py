@@ -5,7 +5,8 @@ trainee's score is read (docs/rehearsal.md), as LAP Mentor shows a trainee the b
         [--workers 2] [--json docs/rehearsal/band.json]
 
 Each episode is recorded (viscera.recording.record, scripted policy) and scored while it runs
-(viscera.assess). The seeds start at 1000: the scripts were tuned on seeds below 200. Per task
+(viscera.assess). The bands alone also go to assets/scenes/reference_band.json, which the
+package installs for `python -m viscera report`. The seeds start at 1000: the scripts were tuned on seeds below 200. Per task
 and figure the JSON holds the quartiles and the best quartile's bound (the 25th percentile for
 figures where less is better), over the episodes; every episode's score is kept too.
 """
@@ -25,18 +26,8 @@ import viscera.tasks
 from viscera import assess, cli, recording
 
 OUT = pathlib.Path("docs") / "rehearsal" / "band.json"
-# (name, how to read it from a score, unit); less is better for every one
-FIGURES = (
-    ("time_s", lambda s: s["time_s"], "s"),
-    ("path_length_m", lambda s: sum(t["path_length_m"] for t in s["tools"].values()), "m"),
-    ("angular_path_deg", lambda s: sum(t["angular_path_deg"] for t in s["tools"].values()), "deg"),
-    ("idle_s", lambda s: sum(t["idle_s"] for t in s["tools"].values()), "s"),
-    ("peak_force_n", lambda s: max(t["peak_force_n"] for t in s["tools"].values()), "N"),
-    ("out_of_view_s", lambda s: sum(t["out_of_view_s"] for t in s["tools"].values()), "s"),
-    ("peak_pinch_n", lambda s: s["tissue"]["peak_pinch_n"], "N"),
-    ("force_time_product_ns", lambda s: s["tissue"]["force_time_product_ns"], "N s"),
-    ("safety_cost", lambda s: s["safety_cost"], ""),
-)
+FIGURES = assess.BAND_FIGURES
+PACKAGED = pathlib.Path("assets") / "scenes" / "reference_band.json"  # the bands alone, installed with the package
 
 
 def episode(task: str, seed: int) -> dict:
@@ -61,6 +52,11 @@ def band(rows: list[dict]) -> dict:
     return out
 
 
+def compact(result: dict) -> dict:
+    """The band without its episodes: what `python -m viscera report` draws against (PACKAGED)."""
+    return {"source": str(OUT), "seeds": result["seeds"], "policy": result["policy"], "tasks": result["tasks"]}
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python python/tools/reference_band.py",
                                      description=__doc__.splitlines()[0])
@@ -80,6 +76,8 @@ def main(argv: list[str] | None = None) -> None:
               "episodes": rows}
     pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     pathlib.Path(args.json).write_text(json.dumps(result, indent=1))
+    if pathlib.Path(args.json).resolve() == OUT.resolve():  # the committed band: the package's copy too
+        PACKAGED.write_text(json.dumps(compact(result), indent=1) + "\n")
     for task, b in result["tasks"].items():
         f = b["figures"]
         print(f"{task:14s} success {b['success_rate']:.0%}, time {f['time_s']['median']:.1f} s, path "

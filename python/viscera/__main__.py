@@ -566,6 +566,16 @@ def build_parser() -> argparse.ArgumentParser:
                                help="write the laparoscope's view with the overlay to this MP4, one frame per "
                                "control step, at the recording's control rate (needs imageio-ffmpeg: the video extra)")
     replay_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    report_parser = commands.add_parser(
+        "report", help="replay recordings and write one HTML page of the attempts against the reference band",
+        description="Check every recording, replay each bit for bit with its score, and write one self-contained "
+        "HTML page (it opens offline): each attempt's score against the reference band, the learning curve of a "
+        "task's attempts (in the order given), and each attempt's force, pinch and tool paths (needs matplotlib: "
+        "the report extra).")
+    report_parser.add_argument("recordings", nargs="+", type=cli.input_file, metavar="FILE",
+                               help="recordings (.npz), in the order they were attempted")
+    report_parser.add_argument("--out", type=cli.output_file(".html", ".htm"), required=True, help="the page")
+    report_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     for command_parser in commands.choices.values():  # each command's last option, and its name for main
         command_parser.add_argument("--verbose", action="store_true", help="print the traceback of an error too")
         command_parser.set_defaults(command_parser=command_parser)
@@ -592,6 +602,17 @@ def main(argv: list[str] | None = None) -> int:
             record(args.task, args.seed, args.policy, args.out, args.time_limit, args.quiet, args.scene)
         elif args.command == "dataset":
             dataset(args)
+        elif args.command == "report":
+            from viscera import report
+            try:
+                summary = report.write(args.recordings, args.out, progress=not args.quiet)
+            except report.ReportError as error:
+                raise UserError(str(error), status=2 if "pip install" in str(error) else 1) from None
+            print(f"wrote {summary['out']}: {summary['attempts']} attempts of {', '.join(summary['tasks'])} "
+                  f"({summary['bytes'] / 1024:.0f} kB)")
+            for path in summary["not_bit_identical"]:
+                print(f"warning: {path} replayed to another final state than it recorded (another viscera?)",
+                      file=sys.stderr)
         elif args.command == "replay":
             replay(args.recording, args.json, args.viewer, args.trajectory, args.quiet, args.video)
         else:

@@ -52,6 +52,20 @@ human small bowel, J Biomech Eng 146(1), 2023). A proxy: no limit for a blunt to
 pulling the bowel was found; this is the smallest published load at which the human small
 bowel's wall fails under a concentrated pull."""
 
+# -- the figures a score is read by against the reference band (python/tools/reference_band.py):
+# (name, how to read it from a score, unit); less is better for every one
+BAND_FIGURES = (
+    ("time_s", lambda s: s["time_s"], "s"),
+    ("path_length_m", lambda s: sum(t["path_length_m"] for t in s["tools"].values()), "m"),
+    ("angular_path_deg", lambda s: sum(t["angular_path_deg"] for t in s["tools"].values()), "deg"),
+    ("idle_s", lambda s: sum(t["idle_s"] for t in s["tools"].values()), "s"),
+    ("peak_force_n", lambda s: max(t["peak_force_n"] for t in s["tools"].values()), "N"),
+    ("out_of_view_s", lambda s: sum(t["out_of_view_s"] for t in s["tools"].values()), "s"),
+    ("peak_pinch_n", lambda s: s["tissue"]["peak_pinch_n"], "N"),
+    ("force_time_product_ns", lambda s: s["tissue"]["force_time_product_ns"], "N s"),
+    ("safety_cost", lambda s: s["safety_cost"], ""),
+)
+
 # -- skill thresholds (definitions, not literature)
 IDLE_SPEED_M_S = 0.005      # a tool whose working point moves slower than this is idle
 WALL_CONTACT_M = 0.001      # a tool closer than this to a cavity wall touches it
