@@ -507,6 +507,11 @@ def build_parser() -> argparse.ArgumentParser:
     teleop_parser.add_argument("--record", type=cli.output_file(".npz"),
                                help="save the session to this file, for replay")
     teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
+    teleop_parser.add_argument("--camera", choices=("steer", "follow", "fixed"), default="steer",
+                               help="steer: the laparoscope is the device's last tool (pitch, yaw, depth, roll), the "
+                               "default; follow: an assistant keeps the active tool centred; fixed: it stays aimed")
+    teleop_parser.add_argument("--optics", choices=("0", "30"), default="0",
+                               help="the laparoscope's optics: 0 (looks along its shaft, the default) or 30 degrees")
     play_parser = commands.add_parser(
         "play", help="play one whole episode of a task with a policy and say whether it succeeded",
         description="Play one whole episode of a task (its own time limit) with its scripted policy, random "
@@ -594,7 +599,8 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"--port is the socket device's; it needs --device socket, not {args.device}",
                                 status=2)
             from viscera.teleop.app import teleop
-            teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit, args.scene)
+            teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit, args.scene,
+                   args.camera, float(args.optics))
         elif args.command == "play":
             success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet, scene=args.scene)
             return 0 if success else 1

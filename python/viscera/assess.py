@@ -31,6 +31,8 @@ import dataclasses
 import mujoco
 import numpy as np
 
+from viscera import laparoscope
+
 # -- tissue limits, each with its source
 PERFORATION_PINCH_N = 10.3
 """Grasping pinch at which human small bowel perforates: 10.3 +- 2.9 N (Heijnsdijk, de Visser,
@@ -66,6 +68,14 @@ BAND_FIGURES = (
     ("safety_cost", lambda s: s["safety_cost"], ""),
 )
 
+# -- the camera's figures: a laparoscope that a trainee steers (viscera.laparoscope) is scored as
+# camera navigation is trained (a target kept centred in the image: Korndorffer, Hayes, Dunne et
+# al., Development and transferability of a cost-effective laparoscopic camera navigation
+# simulator, Surg Endosc 19:161-167, 2005; LapSim's camera navigation task): the time each tool
+# is centred, the time the horizon is off level and the camera's travel. The thresholds are
+# definitions (viscera.laparoscope.CENTRE_FRACTION, HORIZON_TOLERANCE_DEG), not literature.
+HORIZON_TOLERANCE_DEG = 15.0  # the image's up this far or more from the cranial direction: the horizon is off
+
 # -- skill thresholds (definitions, not literature)
 IDLE_SPEED_M_S = 0.005      # a tool whose working point moves slower than this is idle
 WALL_CONTACT_M = 0.001      # a tool closer than this to a cavity wall touches it
@@ -91,12 +101,16 @@ class Trace:
     jaw_closed: list = dataclasses.field(default_factory=list)  # (tools,) bool, the jaw at or below its closing angle
     pinch: list = dataclasses.field(default_factory=list)     # (tools,) N, the jaws' squeeze while holding
     held_height: list = dataclasses.field(default_factory=list)  # (tools,) m above the posterior wall, nan if not holding
+    centred: list = dataclasses.field(default_factory=list)   # (tools,) bool, in the middle of the laparoscope's image
+    camera_position: list = dataclasses.field(default_factory=list)  # (3,) m, the laparoscope's
+    camera_view: list = dataclasses.field(default_factory=list)      # (3,) unit, where it looks
+    horizon_deg: list = dataclasses.field(default_factory=list)      # the image's up from the cranial direction
     success: bool = False
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {name: np.asarray(getattr(self, name), dtype=float) for name in
                 ("time", "tip", "shaft", "force", "wall", "in_view", "inside", "holding", "jaw_closed", "pinch",
-                 "held_height")}
+                 "held_height", "centred", "camera_position", "camera_view", "horizon_deg")}
 
 
 class Tracer:
@@ -130,7 +144,7 @@ class Tracer:
         grasps = physics.intestine().grasps(data)
         pinch_now = pinches(physics)
         floor = float(data.geom_xpos[self._floor][2] + model.geom_size[self._floor][2]) if self._floor >= 0 else 0.0
-        tips, shafts, forces, walls, seen, inside, holding, closed, pinch, height = ([] for _ in range(10))
+        tips, shafts, forces, walls, seen, inside, holding, closed, pinch, height, centred = ([] for _ in range(11))
         for tool in self.tools:
             tip = physics.working_point(tool)
             trocar = physics.named.data.xpos[f"{tool}_trocar"]
@@ -140,6 +154,8 @@ class Tracer:
             forces.append(np.array(physics.named.data.sensordata[f"{tool}_force"][:3], dtype=float))
             walls.append(self._touches_wall(model, data, tool))
             seen.append(self._in_view(model, data, tip))
+            where = laparoscope.image_point(model, data, self._camera, tip) if self._camera >= 0 else None
+            centred.append(where is not None and max(abs(where[0]), abs(where[1])) <= laparoscope.CENTRE_FRACTION)
             inside.append(float(data.qpos[self._depth[tool]]) > INSIDE_DEPTH_M)
             grasp = grasps[self._sites[tool]] if tool in self._sites else None
             held = bool(grasp is not None and grasp.holding)
@@ -157,6 +173,16 @@ class Tracer:
         trace.jaw_closed.append(closed)
         trace.pinch.append(pinch)
         trace.held_height.append(height)
+        trace.centred.append(centred)
+        if self._camera >= 0:
+            frame = data.cam_xmat[self._camera]
+            trace.camera_position.append(data.cam_xpos[self._camera].copy())
+            trace.camera_view.append(-np.array([frame[2], frame[5], frame[8]]))
+            trace.horizon_deg.append(laparoscope.horizon_of(frame))
+        else:
+            trace.camera_position.append(np.zeros(3))
+            trace.camera_view.append(np.array([0.0, 0.0, -1.0]))
+            trace.horizon_deg.append(0.0)
         trace.success = bool(env.task.success(physics))
         return pinch_now
 
@@ -225,6 +251,7 @@ def score(trace: Trace) -> dict:
     time = a["time"]
     if len(time) < 2:
         raise ValueError("a trace needs at least two samples (after the reset, after a step)")
+    centred = a["centred"] if len(a["centred"]) == len(time) else np.zeros((len(time), len(trace.tools)))
     dt = np.diff(time)
     tools = {}
     for i, tool in enumerate(trace.tools):
@@ -240,6 +267,7 @@ def score(trace: Trace) -> dict:
             "grasps": grasps, "slips": slips, "drops": drops,
             "wall_contact_s": float(dt[a["wall"][1:, i] > 0].sum()),
             "out_of_view_s": float(dt[(a["in_view"][1:, i] == 0) & (a["inside"][1:, i] > 0)].sum()),
+            "centred_s": float(dt[(centred[1:, i] > 0) & (a["inside"][1:, i] > 0)].sum()),
             "peak_force_n": float(magnitude.max()),
             "rms_force_n": float(np.sqrt(np.sum(magnitude ** 2 * dt) / np.sum(dt))),
             "force_over_threshold_s": float(dt[magnitude > TRACTION_LIMIT_N].sum()),
@@ -260,8 +288,16 @@ def score(trace: Trace) -> dict:
         "traction_limit_n": TRACTION_LIMIT_N,
     }
     costs = [step_cost_from(a["force"][k], a["pinch"][k]) for k in range(1, len(time))]
+    camera = None  # a trace built by hand may leave the camera out
+    if len(a["camera_view"]) == len(time):
+        view, position, horizon = a["camera_view"], a["camera_position"], a["horizon_deg"]
+        turns = np.clip((view[1:] * view[:-1]).sum(axis=1), -1.0, 1.0)
+        camera = {"path_deg": float(np.degrees(np.arccos(turns)).sum()),
+                  "travel_m": float(np.sqrt(((position[1:] - position[:-1]) ** 2).sum(axis=1)).sum()),
+                  "horizon_off_s": float(dt[horizon[1:] >= HORIZON_TOLERANCE_DEG].sum()),
+                  "mean_horizon_deg": float(np.sum(horizon[1:] * dt) / np.sum(dt))}
     return {"success": bool(trace.success), "time_s": float(time[-1] - time[0]), "tools": tools, "tissue": tissue,
-            "safety_cost": float(np.dot(costs, dt))}
+            "camera": camera, "safety_cost": float(np.dot(costs, dt))}
 
 
 def step_cost_from(forces: np.ndarray, pinches: np.ndarray) -> float:
@@ -325,6 +361,12 @@ def summary_lines(score: dict) -> list[str]:
                      f"wall {v['wall_contact_s']:.1f} s, out of view {v['out_of_view_s']:.1f} s, force peak "
                      f"{v['peak_force_n']:.2f} N rms {v['rms_force_n']:.2f} N, over {TRACTION_LIMIT_N:g} N "
                      f"{v['force_over_threshold_s']:.1f} s")
+    c = score.get("camera")
+    if c is not None:
+        centred = ", ".join(f"{tool} {v['centred_s']:.1f} s" for tool, v in score["tools"].items())
+        lines.append(f"camera           path {c['path_deg']:.0f} deg, travel {100 * c['travel_m']:.1f} cm, horizon off "
+                     f"level (over {HORIZON_TOLERANCE_DEG:g} deg) {c['horizon_off_s']:.1f} s, mean "
+                     f"{c['mean_horizon_deg']:.0f} deg; centred: {centred}")
     t = score["tissue"]
     mean = t["mean_pinch_while_holding_n"]
     lines.append(f"tissue           pinch peak {t['peak_pinch_n']:.1f} N (perforation {PERFORATION_PINCH_N:g} N), "

@@ -15,7 +15,14 @@ interrupted write never leaves a half file under the name) with two arrays:
   "file:<file name>#<first 12 hex digits of the file's SHA-256>"), `policy_seed` (random only),
   `control_timestep_s`, `time_limit_s`, `steps`, `success`, `final_state_sha256`, the
   `viscera` and `mujoco` versions, `created` (UTC);
-- `actions`: float64 (steps, actuators), the dm_env action of every control tick (rad, m).
+- `actions`: float64 (steps, actuators), the dm_env action of every control tick (rad, m);
+- `camera` (format version 2, where the laparoscope was steered: meta `camera` is then
+  {"optics_deg": 0 or 30}, else null): float64 (steps, 4), the laparoscope's pose during every
+  control tick, set before the tick's step (viscera.laparoscope: pitch deg, yaw deg, depth m,
+  roll deg). The camera moves no physics; the replay sets it so that the score (what the camera
+  saw) and the video are the session's.
+
+Version 1 files (no camera) are read as before.
 
 The task's seed fixes its episode (the bowel, tissue, tilt and target), so the actions are the
 whole episode: `replay` loads the task with the seed, control period and time limit, steps
@@ -41,7 +48,7 @@ import numpy as np
 from viscera import atomic, provenance
 
 FORMAT = "viscera-recording"
-VERSION = 1
+VERSION = 2
 POLICIES = ("scripted", "random", "idle")
 # what every recording's meta holds (created and the versions are informative only)
 REQUIRED = ("task", "seed", "policy", "control_timestep_s", "time_limit_s", "steps", "success", "final_state_sha256")
@@ -52,7 +59,9 @@ MAX_TIME_LIMIT_S = 1e6             # simulated s: the command line's longest epi
 MAX_CONTROL_TIMESTEP_S = 1.0       # s: the tools are driven at 50 Hz; a control period of seconds is no episode
 MAX_META_BYTES = 1 << 20           # a recording's meta is under 1 kB
 MAX_ACTIONS_BYTES = 1 << 32        # 4 GiB: a MAX_TIME_LIMIT_S episode at 50 Hz, 9 actuators (3.6 GB)
-ENTRIES = {"meta": (np.dtype(np.uint8), 1, MAX_META_BYTES), "actions": (np.dtype("<f8"), 2, MAX_ACTIONS_BYTES)}
+ENTRIES = {"meta": (np.dtype(np.uint8), 1, MAX_META_BYTES), "actions": (np.dtype("<f8"), 2, MAX_ACTIONS_BYTES),
+           "camera": (np.dtype("<f8"), 2, MAX_ACTIONS_BYTES)}
+CAMERA_BOUNDS = (np.array([-180.0, -180.0, 0.0, -180.0]), np.array([180.0, 180.0, 1.0, 180.0]))  # deg, deg, m, deg
 
 
 class RecordingError(ValueError):
@@ -73,6 +82,8 @@ class Recording:
     created: str = ""
     versions: dict = dataclasses.field(default_factory=dict)
     scene: str = "abdomen"               # the cavity (viscera.tasks.scene.SCENES)
+    camera: np.ndarray | None = None     # (steps, 4) the steered laparoscope's pose per tick (viscera.laparoscope)
+    optics_deg: float = 0.0              # its optics, where steered
 
     @property
     def steps(self) -> int:
@@ -83,13 +94,17 @@ class Recording:
                 "policy": self.policy,
                 "policy_seed": self.policy_seed, "control_timestep_s": self.control_timestep_s,
                 "time_limit_s": self.time_limit_s, "steps": self.steps, "success": bool(self.success),
-                "final_state_sha256": self.final_state_sha256, "created": self.created, **self.versions}
+                "final_state_sha256": self.final_state_sha256, "created": self.created,
+                "camera": None if self.camera is None else {"optics_deg": self.optics_deg}, **self.versions}
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the recording to `path` (.npz); never a half file under that name."""
         path = pathlib.Path(path)
         meta = np.frombuffer(json.dumps(self.meta()).encode(), dtype=np.uint8)
-        atomic.save_npz(path, compressed=True, meta=meta, actions=np.asarray(self.actions, dtype=np.float64))
+        arrays = {"meta": meta, "actions": np.asarray(self.actions, dtype=np.float64)}
+        if self.camera is not None:
+            arrays["camera"] = np.asarray(self.camera, dtype=np.float64)
+        atomic.save_npz(path, compressed=True, **arrays)
 
 
 versions, _now = provenance.versions, provenance.now  # what a recording keeps of its making
@@ -180,10 +195,43 @@ def load(path: str | os.PathLike) -> Recording:
     if len(actions) > math.ceil(time_limit_s / control_timestep_s) + 1:
         raise RecordingError(f"{name}: {len(actions)} steps, more than its time limit ({time_limit_s!r} s) at its "
                              f"control period ({control_timestep_s!r} s) allows")
+    camera, optics_deg = _camera(name, meta, arrays, len(actions))
     versions = {k: _short(meta[k], quoted=False) for k in ("viscera", "mujoco") if k in meta}
     created = meta.get("created", "")
     return Recording(task, meta["seed"], meta["policy"], control_timestep_s, time_limit_s, actions, meta["success"],
-                     digest, meta.get("policy_seed"), created if isinstance(created, str) else "", versions, scene)
+                     digest, meta.get("policy_seed"), created if isinstance(created, str) else "", versions, scene,
+                     camera, optics_deg)
+
+
+def _camera(name: str, meta: dict, arrays: dict, steps: int) -> tuple[np.ndarray | None, float]:
+    """The camera track and its optics (see the module doc), checked; (None, 0.0) without one."""
+    from viscera.laparoscope import OPTICS_DEG
+    described = meta.get("camera")
+    if described is None:
+        if "camera" in arrays:
+            raise RecordingError(f"{name}: a 'camera' entry, but its meta describes no camera")
+        return None, 0.0
+    if not isinstance(described, dict) or set(described) != {"optics_deg"}:
+        raise RecordingError(f"{name}: camera {_short(described)} is not {{\"optics_deg\": 0 or 30}}")
+    optics = described["optics_deg"]
+    if not _is_number(optics) or optics not in OPTICS_DEG:
+        raise RecordingError(f"{name}: camera optics_deg {_short(optics)} is not one of "
+                             f"{', '.join(f'{o:g}' for o in OPTICS_DEG)}")
+    if "camera" not in arrays:
+        raise RecordingError(f"{name}: its meta describes a camera, but it has no 'camera' entry")
+    camera = arrays["camera"]
+    if camera.dtype != np.float64 or camera.shape != (steps, 4):
+        raise RecordingError(f"{name}: camera must be float64 of shape ({steps}, 4), got {camera.dtype} {camera.shape}")
+    if not np.all(np.isfinite(camera)):
+        raise RecordingError(f"{name}: camera holds NaN or infinite values")
+    low, high = CAMERA_BOUNDS
+    outside = (camera < low) | (camera > high)
+    if np.any(outside):
+        tick, coordinate = (int(i) for i in np.argwhere(outside)[0])
+        raise RecordingError(f"{name}: camera {('pitch', 'yaw', 'depth', 'roll')[coordinate]} "
+                             f"{camera[tick, coordinate]!r} at tick {tick} is outside [{low[coordinate]:g}, "
+                             f"{high[coordinate]:g}]")
+    return camera, float(optics)
 
 
 def _read_entries(path: str | os.PathLike, name: str) -> dict[str, np.ndarray]:
@@ -327,14 +375,20 @@ class Recorder:
                                    np.zeros((0, 0)), policy_seed=policy_seed, created=_now(), versions=versions(),
                                    scene=scene)
         self._actions: list[np.ndarray] = []
+        self._camera: list[np.ndarray] = []
 
-    def append(self, action) -> None:
+    def append(self, action, camera=None) -> None:
+        """The tick's action and, where the laparoscope is steered, its pose during the tick."""
         self._actions.append(np.array(action, dtype=np.float64))
+        if camera is not None:
+            self._camera.append(np.array(camera, dtype=np.float64))
 
     def finish(self, env) -> Recording:
         recording = self.recording
         count = env.physics.model.nu
         recording.actions = np.array(self._actions, dtype=np.float64).reshape(-1, count)
+        if self._camera:
+            recording.camera = np.array(self._camera, dtype=np.float64).reshape(-1, 4)
         recording.success = bool(env.task.success(env.physics))
         recording.final_state_sha256 = final_state_sha256(env.physics)
         return recording
@@ -455,8 +509,18 @@ def replay(recording: Recording, on_step: Callable | None = None, progress: bool
         raise RecordingError(f"actions of {recording.actions.shape[1]} values, the task {recording.task!r} takes "
                              f"{expected[0]}")
     actions = iter(recording.actions)
-    steps = _step_through(env, time_step, lambda step: next(actions, None), on_step,
-                          _bar(progress, recording, recording.task))
+    act = lambda step: next(actions, None)  # noqa: E731
+    if recording.camera is not None:
+        from viscera.laparoscope import Laparoscope
+        scope = Laparoscope.of(env.physics, recording.optics_deg)
+        poses = iter(recording.camera)
+
+        def act(step):  # the tick's camera pose, then its action (as the session set them)
+            action = next(actions, None)
+            if action is not None and scope is not None:
+                scope.apply(env.physics, next(poses))
+            return action
+    steps = _step_through(env, time_step, act, on_step, _bar(progress, recording, recording.task))
     return ReplayResult(final_state_sha256(env.physics), bool(env.task.success(env.physics)), steps, env)
 
 

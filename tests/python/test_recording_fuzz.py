@@ -49,11 +49,20 @@ COMPRESSION_METHODS = (0, 1, 6, 8, 9, 12, 14, 93, 95, 98, 99, 0xFFFF)  # stored,
 # -- the originals and the archive's parts
 
 def make_originals(folder: pathlib.Path) -> list[tuple[pathlib.Path, rec.Recording]]:
+    """ORIGINALS, then the first again with a steered laparoscope's track (30 degree optics): the
+    camera moves no physics, so the recorded final state holds."""
     originals = []
     for task, seed, policy, limit in ORIGINALS:
         path = folder / f"{task}.npz"
         rec.record(task, seed=seed, policy=policy, time_limit_s=limit).save(path)
         originals.append((path, rec.load(path)))
+    steered = rec.load(originals[0][0])
+    ramp = np.linspace(0.0, 1.0, steered.steps)[:, None]
+    steered.camera = np.array([10.0, -5.0, 0.03, 0.0]) + ramp * np.array([5.0, 5.0, 0.01, 30.0])
+    steered.optics_deg = 30.0
+    path = folder / "steered.npz"
+    steered.save(path)
+    originals.append((path, rec.load(path)))
     return originals
 
 
@@ -178,7 +187,7 @@ def npy_header(rng, whole: bytes):
 
 
 META_KEYS = ("version", "task", "scene", "seed", "policy", "policy_seed", "control_timestep_s", "time_limit_s",
-             "steps", "success", "final_state_sha256", "created", "viscera", "format")
+             "steps", "success", "final_state_sha256", "created", "viscera", "format", "camera")
 
 
 def extreme_meta(rng, whole: bytes):
@@ -195,14 +204,20 @@ def extreme_meta(rng, whole: bytes):
     value = EXTREME_JSON[int(rng.integers(0, len(EXTREME_JSON)))]
     if rng.integers(0, 3) == 0 and key in ("control_timestep_s", "time_limit_s"):  # near the real value
         value = meta[key] * float(rng.choice([1 + 1e-9, 1 + 1e-12, 1.5, 2.0, 0.5, 1e-3]))
-    meta[key] = value
+    if key == "camera" and rng.integers(0, 2):  # the optics made extreme
+        key, value = "camera.optics_deg", value
+        meta["camera"] = {"optics_deg": value}
+    else:
+        meta[key] = value
     return f"meta {key} = {str(value)[:40]}", archive(list(with_meta(members, meta).items()))
 
 
 def extreme_actions(rng, whole: bytes):
-    """Extreme numbers written into the actions, or the actions of another dtype or shape."""
+    """Extreme numbers written into the actions (or the camera track, where there is one), or
+    either of another dtype or shape."""
     members = entries(whole)
-    actions = np.load(io.BytesIO(members["actions.npy"]))
+    entry = "camera.npy" if "camera.npy" in members and rng.integers(0, 2) else "actions.npy"
+    actions = np.load(io.BytesIO(members[entry]))
     how = int(rng.integers(0, 3))
     if how == 0:
         changed = actions.copy()
@@ -220,7 +235,7 @@ def extreme_actions(rng, whole: bytes):
                   np.concatenate([actions, actions])]
         changed = shapes[int(rng.integers(0, len(shapes)))]
         what = f"actions of shape {changed.shape}"
-    return what, archive(list({**members, "actions.npy": npy(changed)}.items()))
+    return f"{entry}: {what}", archive(list({**members, entry: npy(changed)}.items()))
 
 
 def entry_list(rng, whole: bytes):
@@ -259,8 +274,9 @@ def mutant(index: int, originals: list) -> tuple[str, bytes, int]:
 # -- what a mutant gives
 
 def replayed_inputs(recording: rec.Recording) -> tuple:
+    camera = None if recording.camera is None else (recording.optics_deg, recording.camera.tobytes())
     return (recording.task, recording.scene, recording.seed, recording.control_timestep_s, recording.time_limit_s,
-            recording.actions.shape, recording.actions.tobytes())
+            recording.actions.shape, recording.actions.tobytes(), camera)
 
 
 def outcome(path: pathlib.Path, original: rec.Recording, replay_same: bool = False) -> str:

@@ -107,7 +107,8 @@ class Display(threading.Thread):
 
 
 def teleop(task: str, seed: int | None = None, device: str = "keyboard", record: str | None = None,
-           port: int | None = None, time_limit_s: float | None = None, scene: str = "abdomen") -> dict:
+           port: int | None = None, time_limit_s: float | None = None, scene: str = "abdomen", camera: str = "steer",
+           optics_deg: float = 0.0) -> dict:
     """Run one rehearsal episode in MuJoCo's viewer; print the score and the verdict; return the score."""
     import viscera.tasks
     if task not in viscera.tasks.ALL:
@@ -121,7 +122,8 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
         raise UserError(str(error), status=2) from None
     session = None
     try:
-        session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s, scene=scene)
+        session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s, scene=scene, camera=camera,
+                          optics_deg=optics_deg)
         prepare_view(session.model)
         import mujoco.viewer
         key_callback = hardware.key if isinstance(hardware, devices.KeyboardDevice) else None
@@ -131,7 +133,10 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
                                           show_left_ui=False, show_right_ui=False) as viewer:
             display = Display(viewer, session, lock)
             display.start()
-            print(f"teleop {task} (seed {seed}): the {hardware.name} drives the tools; close the window to stop",
+            scope = {"steer": f", and the laparoscope ({optics_deg:g} degree optics) as its last tool",
+                     "follow": f"; the laparoscope ({optics_deg:g} degree optics) follows the active tool",
+                     "fixed": ""}[camera]
+            print(f"teleop {task} (seed {seed}): the {hardware.name} drives the tools{scope}; close the window to stop",
                   flush=True)
             try:
                 result = session.run(on_frame=lambda _: viewer.is_running(), lock=lock)

@@ -12,6 +12,13 @@ steps the dm_control environment with that command as its action, records the ac
 episode replays bit for bit: viscera.recording), samples the score's trace, and hands the
 device a Snapshot of the tools (a haptic device renders forces from it).
 
+The laparoscope (viscera.laparoscope) is steered too: with `camera="steer"` (the default) it is
+one more tool in the device's list, named `laparoscope`, driven by the same controls in pitch,
+yaw, depth and roll (its jaw does nothing), at the scope's own speeds (laparoscope.SPEED); with
+`camera="follow"` an assistant keeps the active tool's working point centred; with "fixed" it
+stays where the episode aimed it. `optics_deg` is 0 or 30. The pose of every tick is recorded
+with its action, and set before the tick's step, so the replay sees what the person saw.
+
 The simulation never runs faster than the wall clock. A tick that ends after its wall-clock
 deadline is counted as behind (`ticks_behind`), and the time lost is dropped (`lost_s`), not
 caught up by running faster afterwards.
@@ -27,13 +34,15 @@ from collections.abc import Callable
 import numpy as np
 
 import viscera.tasks
-from viscera import assess
+from viscera import assess, laparoscope
 from viscera.tasks.policies import Tools
 from viscera.teleop.devices import MAX_VELOCITY, Device, Snapshot, ToolInfo
 from viscera.trajectory import TO_SI as _TO_SI
 
 CONTROL_TIMESTEP_S = 0.01   # a device's commands reach the tools at 100 Hz (the physics runs at 500 Hz)
 FRAME_S = 1.0 / 30.0        # the viewer is redrawn at 30 frames per wall second
+CAMERA_MODES = ("steer", "follow", "fixed")
+CAMERA_TOOL = "laparoscope"  # the steered scope's name among the device's tools
 TO_SI = np.array(_TO_SI)    # user units (viscera.trajectory.UNITS) -> rad, m
 
 
@@ -54,9 +63,11 @@ class Session:
 
     def __init__(self, task: str, seed: int | None = None, device: Device | None = None,
                  control_timestep_s: float = CONTROL_TIMESTEP_S, time_limit_s: float | None = None,
-                 record: bool = True, scene: str = "abdomen"):
+                 record: bool = True, scene: str = "abdomen", camera: str = "steer", optics_deg: float = 0.0):
         if task not in viscera.tasks.ALL:
             raise KeyError(f"unknown task {task!r}; known: {', '.join(viscera.tasks.ALL)}")
+        if camera not in CAMERA_MODES:
+            raise ValueError(f"camera = {camera!r}: must be one of {', '.join(CAMERA_MODES)}")
         self.task_name, self.seed = task, seed
         self.env = viscera.tasks.load(task, seed=seed, control_timestep=control_timestep_s, time_limit=time_limit_s,
                                       scene=scene)
@@ -68,6 +79,9 @@ class Session:
         self.device = device
         self._find_tools()
         self.command = {tool.name: tool.initial.copy() for tool in self.tools}
+        self.camera_mode = camera
+        self.scope = laparoscope.Laparoscope.of(self.physics, optics_deg) if camera != "fixed" else None
+        self.camera_pose = self.scope.initial.copy() if self.scope is not None else None
         self.ticks = 0
         self.ticks_behind = 0
         self.lost_s = 0.0
@@ -79,9 +93,36 @@ class Session:
             from viscera.recording import Recorder
             self.recorder = Recorder(task, seed, f"person:{device.name if device else 'none'}",
                                      self.control_timestep_s, self.time_limit_s, scene=scene)
+            self.recorder.recording.optics_deg = float(optics_deg)
         if device is not None:
-            device.start(self.tools)
+            device.start(self.device_tools())
             device.feedback(self.snapshot())
+
+    def device_tools(self) -> list[ToolInfo]:
+        """The tools the device drives: the task's, then the laparoscope when it is steered by hand."""
+        if self.camera_mode != "steer" or self.scope is None:
+            return list(self.tools)
+        pose = np.append(self.scope.initial, 0.0)
+        return list(self.tools) + [ToolInfo(CAMERA_TOOL, len(self.tools), np.zeros(5), np.append(self.scope.lower, 0.0),
+                                            np.append(self.scope.upper, 0.0), pose, False)]
+
+    def _move_camera(self, target, dt: float) -> None:
+        """The laparoscope's pose this tick: towards the device's target at the scope's speeds, or
+        the assistant's step towards the active tool; set in the model before the step."""
+        if self.scope is None:
+            return
+        if self.camera_mode == "follow":
+            active = self.device.active_tool if self.device is not None else None
+            names = [tool.name for tool in self.tools]
+            tool = active if active in names else names[0]
+            self.camera_pose = self.scope.follow(self.physics, self.camera_pose, self.physics.working_point(tool), dt)
+        elif target is not None:
+            target = np.asarray(target, dtype=float)[:4]
+            if target.shape == (4,) and np.all(np.isfinite(target)):  # a device's bad value never reaches MuJoCo
+                reach = laparoscope.SPEED * dt
+                step = np.clip(np.clip(target, self.scope.lower, self.scope.upper) - self.camera_pose, -reach, reach)
+                self.camera_pose = self.camera_pose + step
+        self.scope.apply(self.physics, self.camera_pose)
 
     # -- the tools, in user units (deg, m), COORDINATES order
     def _find_tools(self) -> None:
@@ -124,8 +165,11 @@ class Session:
             warning[tool.name] = bool(np.linalg.norm(force[tool.name]) > assess.TRACTION_LIMIT_N
                                       or pinch.get(tool.name, 0.0) > assess.PERFORATION_PINCH_N
                                       or self.hold_force_time.get(tool.name, 0.0) > assess.FORCE_TIME_PRODUCT_LIMIT_NS)
-        return Snapshot(float(self.data.time), q, qdot, force, {t.name: holding.get(t.name, False) for t in self.tools},
-                        warning, pinch)
+        held = {t.name: holding.get(t.name, False) for t in self.tools}
+        if self.camera_mode == "steer" and self.scope is not None:  # the scope as a device sees a tool
+            q[CAMERA_TOOL], qdot[CAMERA_TOOL] = np.append(self.camera_pose, 0.0), np.zeros(5)
+            force[CAMERA_TOOL], held[CAMERA_TOOL], warning[CAMERA_TOOL] = np.zeros(3), False, False
+        return Snapshot(float(self.data.time), q, qdot, force, held, warning, pinch)
 
     def action(self) -> np.ndarray:
         """The dm_env action of the current commands (rad, m per actuator)."""
@@ -144,11 +188,12 @@ class Session:
                 continue  # a device's bad value never reaches MuJoCo
             command = self.command[tool.name]
             command += np.clip(np.clip(target, tool.lower, tool.upper) - command, -MAX_VELOCITY * dt, MAX_VELOCITY * dt)
+        self._move_camera(targets.get(CAMERA_TOOL), dt)
         action = self.action()
         self.time_step = self.env.step(action)
         self.ticks += 1
         if self.recorder is not None:
-            self.recorder.append(action)
+            self.recorder.append(action, camera=self.camera_pose)
         pinches = self.tracer.sample(self.env)
         for tool, pinch in pinches.items():  # the current hold's force-time product
             self.hold_force_time[tool] = self.hold_force_time.get(tool, 0.0) + pinch * dt if pinch > 0.0 else 0.0
