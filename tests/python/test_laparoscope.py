@@ -174,3 +174,27 @@ def test_a_bad_camera_mode_or_optics_is_refused():
     env.reset()
     with pytest.raises(ValueError, match="optics = 45"):
         Laparoscope.of(env.physics, 45)
+
+
+def test_a_dataset_from_a_steered_recording_sees_what_the_camera_saw():
+    """dataset --policy recordings --pixels: the images of a recording with a camera track are the
+    steered camera's (the first, before any tick, the aimed one's); the states are the same."""
+    from viscera.datasets import episodes
+    from viscera.gymnasium_env import TaskEnv
+    made = recording.record("grasp_lift", seed=2, policy="random", time_limit_s=0.1)
+
+    def environment():
+        return TaskEnv(**episodes.env_kwargs("grasp_lift", "abdomen", True, (48, 48),
+                                             control_timestep_s=made.control_timestep_s,
+                                             time_limit_s=made.time_limit_s))
+
+    plain = episodes.run(environment(), made.seed, made.policy, made.actions)
+    env = environment()
+    env.reset(seed=made.seed)
+    turned = Laparoscope.of(env.dm_env.physics, 30.0).initial + np.array([0.0, 0.0, 0.0, 45.0])
+    steered = episodes.run(env, made.seed, made.policy, made.actions, camera=np.tile(turned, (made.steps, 1)),
+                           optics_deg=30.0)
+    np.testing.assert_array_equal(plain.state, steered.state)
+    pixels = [k for k in plain.images if "pixels" in k or "rgb" in k][0]
+    np.testing.assert_array_equal(plain.images[pixels][0], steered.images[pixels][0])
+    assert np.abs(plain.images[pixels][-1].astype(int) - steered.images[pixels][-1].astype(int)).mean() > 5.0

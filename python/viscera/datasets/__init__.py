@@ -95,6 +95,8 @@ class Job:
     source: str = ""                    # a recording's file name, for errors
     policy_file: str | None = None      # a policy file's absolute path (demonstrator: its label)
     policy_sha256: str | None = None    # ... and its SHA-256 when it was checked: a worker loads the same file
+    camera: np.ndarray | None = None    # a recording's steered laparoscope, a pose per tick (viscera.laparoscope)
+    optics_deg: float = 0.0             # ... and its optics
 
 
 def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, camera: str) -> list[Job]:
@@ -129,7 +131,8 @@ def recording_jobs(task: str, folder: str | os.PathLike, pixels: bool, size, cam
             raise DatasetError("recordings", str(folder), f"{path.name} differs from {jobs[0].source} in {differ}: "
                                "one dataset holds one environment's episodes")
         jobs.append(Job(kwargs, int(taken.seed), taken.policy, taken.actions,
-                        final_state_sha256=taken.final_state_sha256, source=path.name))
+                        final_state_sha256=taken.final_state_sha256, source=path.name, camera=taken.camera,
+                        optics_deg=taken.optics_deg))
     return jobs
 
 
@@ -183,7 +186,8 @@ def _collect(job: Job) -> episodes.Episode:
 
         env = _environments[job.env_kwargs] = TaskEnv(**dict(job.env_kwargs))
     policy = _policy(job, env) if job.policy_file is not None else None
-    episode = episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise, policy=policy)
+    episode = episodes.run(env, job.seed, job.demonstrator, job.actions, job.action_noise, policy=policy,
+                           camera=job.camera, optics_deg=job.optics_deg)
     if job.final_state_sha256 is not None:
         from viscera import recording
 

@@ -95,7 +95,7 @@ NOISE_CORRELATION_S = 0.5  # s, the injected noise's correlation time: slower th
 
 
 def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None = None,
-        action_noise: float = 0.0, policy=None) -> Episode:
+        action_noise: float = 0.0, policy=None, camera: np.ndarray | None = None, optics_deg: float = 0.0) -> Episode:
     """One episode of `env` from the task's `seed`, each action from `demonstrator` (DEMONSTRATORS;
     random draws from the seed), or from `policy` (a callable time step -> dm_env action, e.g. a
     policy file's, checked against `env`; `demonstrator` is then its name) or, given `actions` (a
@@ -105,7 +105,10 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
     action_noise: the standard deviation (in normalised action units) of noise added to every
     action taken, an Ornstein-Uhlenbeck process of NOISE_CORRELATION_S drawn from the seed, while
     the demonstrator keeps correcting from where the noise put the tools (DART, Laskey et al.
-    2017): `demonstrator_action` keeps its commands, the labels a cloned policy learns from."""
+    2017): `demonstrator_action` keeps its commands, the labels a cloned policy learns from.
+
+    camera: a recording's steered laparoscope (a pose per action, viscera.laparoscope, of
+    `optics_deg`), set before each step as the session set it: the images are what it saw."""
     from viscera import recording
 
     dm_env = env.dm_env
@@ -130,6 +133,10 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
             privileged[key].append(value)
 
     keep(observation)
+    scope = None
+    if camera is not None:
+        from viscera.laparoscope import Laparoscope
+        scope = Laparoscope.of(dm_env.physics, optics_deg)
     time_step = env.time_step  # the FIRST dm_env time step: the policies act on time steps
     limit = len(actions) if actions is not None else None
     t = 0
@@ -143,6 +150,8 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
             action = np.clip(label + noise, -1.0, 1.0)
             dm_action = env.dm_action(action)
         # without noise the demonstrator's own command steps the simulation; the dataset keeps it normalised
+        if scope is not None and t < len(camera):
+            scope.apply(dm_env.physics, camera[t])
         time_step = dm_env.step(dm_action)
         t += 1
         done = time_step.last()

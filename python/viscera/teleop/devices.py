@@ -197,7 +197,8 @@ class KeyboardDevice(Device):
 
     def help_lines(self) -> list[tuple[str, str]]:
         return [("Up / Down", "pitch 2 deg"), ("Left / Right", "yaw 2 deg"), ("Home / End", "in / out 5 mm"),
-                ("Insert / Delete", "roll 15 deg"), ("Enter", "jaws open / close"), ("Page Down", "next tool")]
+                ("Insert / Delete", "roll 15 deg"), ("Enter", "jaws open / close"),
+                ("Page Down", "next tool, then the scope")]
 
 
 # -- gamepad: pygame (SDL) joysticks
