@@ -2,8 +2,8 @@
 
     python python/tools/teleop_picture.py --out docs/rehearsal/teleop.png [--task clear_area] [--seed 0]
 
-Runs `python -m viscera teleop`'s viewer (viscera.teleop.app: the laparoscope's view, the
-overlay, the keyboard's bindings) on a virtual X display (Xvfb) with the task's scripted policy
+Runs `python -m viscera teleop`'s window (viscera.teleop.window: the laparoscope's view, the
+overlay, the held keyboard's bindings) on a virtual X display (Xvfb) with the task's scripted policy
 at the controls, and takes a screenshot of the window once the tools are at work (--at
 simulated seconds).
 """
@@ -44,35 +44,32 @@ def main() -> None:
     os.environ.pop("MUJOCO_GL", None)
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        import mujoco.viewer
         from PIL import ImageGrab
 
         import viscera.tasks
         from viscera.teleop import app
-        from viscera.teleop.devices import KeyboardDevice, PolicyDevice
-        from viscera.teleop.session import Session
+        from viscera.teleop.devices import HeldKeyboardDevice, PolicyDevice
+        from viscera.teleop.session import FRAME_S, Session
+        from viscera.teleop.window import Window
 
         device = PolicyDevice()
-        device.help_lines = KeyboardDevice().help_lines  # the overlay a keyboard user sees
+        device.help_lines = HeldKeyboardDevice().help_lines  # the overlay a keyboard user sees
         session = Session(args.task, seed=args.seed, device=device, record=False)
         device.drive(session, viscera.tasks.scripted_policy(session.env))
         app.prepare_view(session.model)
         lock = threading.Lock()
-        before = set(threading.enumerate())
-        with mujoco.viewer.launch_passive(session.model, session.data, show_left_ui=False,
-                                          show_right_ui=False) as viewer:
-            shown = app.Display(viewer, session, lock)
-            shown.start()
-            session.run(duration_s=args.at, lock=lock)
-            frames = shown.frames
-            while shown.frames < frames + 2:  # two frames drawn since the last tick: the window is current
-                shown.stop.wait(0.05)
+        window = Window(session, lambda key, action: None, lock, title=f"viscera teleop: {args.task}")
+        try:
+            thread = threading.Thread(target=session.run, kwargs={"duration_s": args.at, "lock": lock})
+            thread.start()
+            while thread.is_alive():
+                window.draw(app.overlay)
+                thread.join(FRAME_S)
+            window.draw(app.overlay)  # the last tick's state, drawn twice: the window is current
+            window.draw(app.overlay)
             ImageGrab.grab(xdisplay=display).crop(window_box(display)).save(args.out)
-            shown.stop.set()
-            shown.join()
-        for thread in set(threading.enumerate()) - before:
-            if "_launch_internal" in thread.name:
-                thread.join()
+        finally:
+            window.close()
         print(f"wrote {args.out}")
     finally:
         server.terminate()
@@ -80,9 +77,9 @@ def main() -> None:
 
 
 def window_box(display: str) -> tuple[int, int, int, int]:
-    """The MuJoCo window's box on the screen (left, top, right, bottom)."""
+    """teleop's window's box on the screen (left, top, right, bottom)."""
     env = dict(os.environ, DISPLAY=display)
-    window = subprocess.run(["xdotool", "search", "--limit", "1", "--name", "MuJoCo"], env=env, capture_output=True,
+    window = subprocess.run(["xdotool", "search", "--limit", "1", "--name", "viscera teleop"], env=env, capture_output=True,
                             text=True, check=True).stdout.split()[0]
     geometry = dict(line.split("=") for line in subprocess.run(
         ["xdotool", "getwindowgeometry", "--shell", window], env=env, capture_output=True, text=True,

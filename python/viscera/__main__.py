@@ -510,6 +510,9 @@ def build_parser() -> argparse.ArgumentParser:
     teleop_parser.add_argument("--camera", choices=("steer", "follow", "fixed"), default="steer",
                                help="steer: the laparoscope is the device's last tool (pitch, yaw, depth, roll), the "
                                "default; follow: an assistant keeps the active tool centred; fixed: it stays aimed")
+    teleop_parser.add_argument("--keys", choices=("hold", "step"), default="hold",
+                               help="the keyboard: hold a key to move at the tools' velocity limits, release it to "
+                               "stop, in teleop's own window (the default); step: each press steps, in MuJoCo's viewer")
     teleop_parser.add_argument("--optics", choices=("0", "30"), default="0",
                                help="the laparoscope's optics: 0 (looks along its shaft, the default) or 30 degrees")
     play_parser = commands.add_parser(
@@ -600,7 +603,7 @@ def main(argv: list[str] | None = None) -> int:
                                 status=2)
             from viscera.teleop.app import teleop
             teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit, args.scene,
-                   args.camera, float(args.optics))
+                   args.camera, float(args.optics), args.keys)
         elif args.command == "play":
             success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet, scene=args.scene)
             return 0 if success else 1

@@ -194,7 +194,7 @@ def test_key_presses_in_the_viewer_move_the_active_tool_and_switch_tools(display
     out = tmp_path / "keys.npz"
     env = display_environment(display)
     process = subprocess.Popen([sys.executable, "-m", "viscera", "teleop", "clear_area", "--seed", "3",
-                                "--device", "keyboard", "--time-limit", "5", "--record", str(out)],
+                                "--device", "keyboard", "--keys", "step", "--time-limit", "5", "--record", str(out)],
                                env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = process.stdout.readline()
@@ -226,6 +226,51 @@ def test_key_presses_in_the_viewer_move_the_active_tool_and_switch_tools(display
     assert final["retractor_depth"] - start["retractor_depth"] == pytest.approx(0.010)
     assert final["retractor_roll"] - start["retractor_roll"] == pytest.approx(np.radians(15.0))
     assert final["retractor_pitch"] == start["retractor_pitch"] and final["grasper_roll"] == start["grasper_roll"]
+
+
+@needs_display_tools
+def test_a_held_key_moves_the_tool_at_its_velocity_limit_until_released(display, tmp_path):
+    """teleop's own window (the default keyboard): xdotool holds Home down for 0.6 s, then, after
+    Page Down, Up for 0.4 s. The recorded depth command is a ramp at the depth's velocity limit
+    for as long as the key was held, then still; the second tool's (the retractor's) pitch ramps
+    likewise; the other coordinates never move."""
+    from viscera.recording import load
+    out = tmp_path / "held.npz"
+    env = display_environment(display)
+    process = subprocess.Popen([sys.executable, "-m", "viscera", "teleop", "clear_area", "--seed", "3",
+                                "--time-limit", "6", "--record", str(out)],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = process.stdout.readline()
+        assert line.startswith("teleop clear_area (seed 3): the held keys drive the tools"), line + process.stderr.read()
+        window = subprocess.run(["xdotool", "search", "--sync", "--limit", "1", "--name", "viscera teleop"], env=env,
+                                capture_output=True, text=True, timeout=60).stdout.split()[0]
+        subprocess.run(["xdotool", "windowfocus", "--sync", window], env=env, check=True, timeout=30)
+        # the holds' lengths are the input itself (a person holding a key), not a wait for something
+        subprocess.run(["xdotool", "keydown", "Home", "sleep", "0.6", "keyup", "Home", "key", "Next",
+                        "keydown", "Up", "sleep", "0.4", "keyup", "Up"], env=env, check=True, timeout=30)
+        out_text, err = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0 and "Traceback" not in err, err
+    recording = load(out)
+    names = [f"{t}_{c}" for t in ("grasper", "retractor") for c in COORDINATES if not (t == "retractor" and c == "jaw")]
+    actions = dict(zip(names, recording.actions.T))
+    dt = recording.control_timestep_s
+
+    def ramp(values: np.ndarray, per_tick: float) -> int:
+        """The ticks the value moved: each by exactly per_tick, all in one run."""
+        moved = np.nonzero(np.abs(np.diff(values)) > 1e-12)[0]
+        assert len(moved) and np.all(np.diff(moved) == 1), moved  # one continuous run, not steps
+        np.testing.assert_allclose(np.diff(values)[moved], per_tick, rtol=1e-9)
+        return len(moved)
+
+    depth_ticks = ramp(actions["grasper_depth"], MAX_VELOCITY[2] * dt)
+    pitch_ticks = ramp(actions["retractor_pitch"], np.radians(MAX_VELOCITY[0]) * dt)
+    assert 0.4 <= depth_ticks * dt <= 0.9 and 0.25 <= pitch_ticks * dt <= 0.7, (depth_ticks, pitch_ticks)
+    for name in ("grasper_pitch", "grasper_yaw", "grasper_roll", "retractor_depth"):
+        assert np.all(actions[name] == actions[name][0]), name
 
 
 def test_teleop_without_a_display_is_one_line():

@@ -43,7 +43,7 @@ def overlay(session: Session) -> list[tuple]:
                                            if snapshot.holding[tool.name] else ""))
     names += ["time", "behind real time"]
     values += [f"{session.data.time:5.1f} / {session.time_limit_s:.0f} s",
-               f"{session.ticks_behind} ticks, {session.lost_s:.2f} s lost"]
+               f"{session.ticks_behind} tick{'s' * (session.ticks_behind != 1)}, {session.lost_s:.2f} s lost"]
     boxes = [(OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPRIGHT, "\n".join(names), "\n".join(values))]
     if keys:
         boxes.append((OVERLAY_FONT, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(k for k, _ in keys),
@@ -108,7 +108,7 @@ class Display(threading.Thread):
 
 def teleop(task: str, seed: int | None = None, device: str = "keyboard", record: str | None = None,
            port: int | None = None, time_limit_s: float | None = None, scene: str = "abdomen", camera: str = "steer",
-           optics_deg: float = 0.0) -> dict:
+           optics_deg: float = 0.0, keys: str = "hold") -> dict:
     """Run one rehearsal episode in MuJoCo's viewer; print the score and the verdict; return the score."""
     import viscera.tasks
     if task not in viscera.tasks.ALL:
@@ -117,7 +117,7 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
     # Mesa's software GL (no GPU) would draw on every core; on one, the simulation keeps the other
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        hardware = make_device(device, port)
+        hardware = devices.HeldKeyboardDevice() if device == "keyboard" and keys == "hold" else make_device(device, port)
     except devices.DeviceError as error:
         raise UserError(str(error), status=2) from None
     session = None
@@ -125,6 +125,19 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
         session = Session(task, seed=seed, device=hardware, time_limit_s=time_limit_s, scene=scene, camera=camera,
                           optics_deg=optics_deg)
         prepare_view(session.model)
+        scope = {"steer": f", and the laparoscope ({optics_deg:g} degree optics) as its last tool",
+                 "follow": f"; the laparoscope ({optics_deg:g} degree optics) follows the active tool",
+                 "fixed": ""}[camera]
+        if isinstance(hardware, devices.HeldKeyboardDevice):  # our own window: key presses and releases
+            from viscera.teleop.window import Window
+            window = Window(session, hardware.key_event, threading.Lock(), title=f"viscera teleop: {task}")
+            print(f"teleop {task} (seed {seed}): the held keys drive the tools{scope}; close the window to stop",
+                  flush=True)
+            try:
+                result = window.run(overlay)
+            finally:
+                window.close()
+            return _finish(session, result, record, task)
         import mujoco.viewer
         key_callback = hardware.key if isinstance(hardware, devices.KeyboardDevice) else None
         lock = threading.Lock()
@@ -133,9 +146,6 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
                                           show_left_ui=False, show_right_ui=False) as viewer:
             display = Display(viewer, session, lock)
             display.start()
-            scope = {"steer": f", and the laparoscope ({optics_deg:g} degree optics) as its last tool",
-                     "follow": f"; the laparoscope ({optics_deg:g} degree optics) follows the active tool",
-                     "fixed": ""}[camera]
             print(f"teleop {task} (seed {seed}): the {hardware.name} drives the tools{scope}; close the window to stop",
                   flush=True)
             try:
@@ -151,6 +161,11 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
             session.close()
         else:
             hardware.close()
+    return _finish(session, result, record, task)
+
+
+def _finish(session: Session, result, record: str | None, task: str) -> dict:
+    """Save the recording (with --record), print the score and the verdict."""
     if record and result.recording is not None:
         result.recording.save(record)
         print(f"recording        {record} ({result.ticks} ticks)")

@@ -8,13 +8,15 @@ viscera.trajectory.DEFAULT_MAX_VELOCITY, the velocity limits of scripted traject
 
 | device | library (extra) | how it drives |
 |---|---|---|
-| keyboard | MuJoCo's viewer (GLFW) | each key press steps one coordinate of the active tool |
+| keyboard | teleop's window (GLFW) | a held key moves one coordinate of the active tool at its limit |
+| keyboard, `--keys step` | MuJoCo's viewer (GLFW) | each key press steps one coordinate of the active tool |
 | gamepad | pygame (`viscera[gamepad]`) | sticks and triggers set velocities (rate control) |
 | spacemouse | pyspacemouse (`viscera[spacemouse]`) | the cap's six axes set velocities (rate control) |
 | socket | none (UDP on loopback) | an external haptic device sends poses, reads forces at 1 kHz |
 
-MuJoCo's viewer reports key presses only (no repeats, no releases): a held key does not keep
-a tool moving, so the keyboard steps; rate control needs a gamepad or a SpaceMouse.
+MuJoCo's viewer reports key presses only (no repeats, no releases): there the keyboard steps
+(KeyboardDevice). teleop's own window (viscera.teleop.window) reports releases too: a held key
+moves the tool until it is let go (HeldKeyboardDevice, rate control like a gamepad's).
 """
 
 from __future__ import annotations
@@ -201,6 +203,67 @@ class KeyboardDevice(Device):
                 ("Page Down", "next tool, then the scope")]
 
 
+# -- keyboard held: a window of our own (viscera.teleop.window, GLFW) reports presses and releases
+
+KEY_RATES = {  # key -> (coordinate index, direction): held, the coordinate moves at the tools' velocity limit
+    KEY_UP: (0, 1.0), KEY_DOWN: (0, -1.0), KEY_LEFT: (1, 1.0), KEY_RIGHT: (1, -1.0),
+    KEY_HOME: (2, 1.0), KEY_END: (2, -1.0), KEY_INSERT: (3, -1.0), KEY_DELETE: (3, 1.0),
+}
+PRESS, RELEASE = 1, 0  # GLFW's key actions (2, a repeat, changes nothing: the key is still held)
+
+
+class HeldKeyboardDevice(RateDevice):
+    """Held keys move the active tool at its velocity limits, released keys stop it: the same
+    keys as KeyboardDevice (arrows pitch and yaw, Home and End in and out, Insert and Delete
+    roll), Enter opens or closes the jaws and Page Down switches the tool, on their press.
+    `key_event(key, action)` is the window's key callback (GLFW's codes and actions; it runs on
+    the window's thread: the state is kept under a lock and read at each tick)."""
+
+    name = "keyboard"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._held: set[int] = set()
+        self._switch = self._toggle = False
+        self._lock = threading.Lock()
+        self.presses = 0
+
+    def key_event(self, key: int, action: int) -> None:
+        with self._lock:
+            if action == RELEASE:
+                self._held.discard(key)
+            elif action == PRESS:
+                if key in KEY_RATES:
+                    self._held.add(key)
+                elif key == KEY_ENTER:
+                    self._toggle = True
+                elif key == KEY_PAGE_DOWN:
+                    self._switch = True
+                else:
+                    return
+                self.presses += 1
+
+    def read(self) -> tuple[np.ndarray, float | None, bool]:
+        with self._lock:
+            held, switch, toggle = set(self._held), self._switch, self._toggle
+            self._switch = self._toggle = False
+        rates = np.zeros(5)
+        for key in held:
+            index, direction = KEY_RATES[key]
+            rates[index] += direction
+        jaw = None
+        if toggle and self.tools:
+            tool = self.tools[self.active]
+            if tool.has_jaw:  # open goes closed, anything else opens
+                jaw = 0.0 if self._targets[tool.name][4] > 0.5 * (tool.lower[4] + tool.upper[4]) else 1.0
+        return rates, jaw, switch
+
+    def help_lines(self) -> list[tuple[str, str]]:
+        return [("Up / Down (hold)", "pitch"), ("Left / Right (hold)", "yaw"), ("Home / End (hold)", "in / out"),
+                ("Insert / Delete (hold)", "roll"), ("Enter", "jaws open / close"),
+                ("Page Down", "next tool, then the scope")]
+
+
 # -- gamepad: pygame (SDL) joysticks
 
 GAMEPAD_DEADZONE = 0.12  # stick travel read as zero: sticks rest a little off centre
@@ -328,6 +391,8 @@ class PolicyDevice(Device):
         action = self.policy(self.session.time_step)
         out = {}
         for tool in self.tools:
+            if tool.name not in self.session.mapping.actuators:  # the laparoscope: the policy leaves it aimed
+                continue
             actuators = np.array(self.session.mapping.actuators[tool.name])
             out[tool.name] = np.where(actuators >= 0, action[np.maximum(actuators, 0)] / TO_SI, 0.0)
         return out
