@@ -446,6 +446,24 @@ def bc_results() -> str:
     return _rows(header, rows)
 
 
+def bc_reevaluations() -> str:
+    """The committed policies' successes before and after each change of the tasks (bc.py --reevaluate)."""
+    record = _json("learning/bc.json")
+    rows = []
+    for task in sorted(record["results"]):
+        for kind in ("state", "pixels"):
+            r = record["results"][task].get(kind)
+            for change in (r or {}).get("reevaluations", []):
+                before = change["before"]
+                rows.append([task, kind, change["why"], change["date"], _percent(before["success_rate"]),
+                             f"**{_percent(r['success_rate'])}**",
+                             f"{len(set(before['succeeded_seeds']) & set(r['succeeded_seeds']))} of "
+                             f"{len(before['succeeded_seeds'])}"])
+    first, last = record["eval_seeds"]
+    return _rows(["task", "observations", "the change", "re-evaluated", f"success before, seeds {first}-{last}",
+                  "after", "seeds that still succeed"], rows)
+
+
 def bc_variants() -> str:
     runs: dict[str, list[dict]] = {}
     for v in _json("learning/bc_variants.json")["variants"]:
