@@ -95,7 +95,7 @@ class Trace:
     shaft: list = dataclasses.field(default_factory=list)     # (tools, 3) unit, trocar to tip
     force: list = dataclasses.field(default_factory=list)     # (tools, 3) N, the tissue's force on each tool
     wall: list = dataclasses.field(default_factory=list)      # (tools,) bool, touching a cavity wall
-    in_view: list = dataclasses.field(default_factory=list)   # (tools,) bool, inside the laparoscope's view
+    in_view: list = dataclasses.field(default_factory=list)   # (tools,) bool, the laparoscope sees it (Physics.tool_seen)
     inside: list = dataclasses.field(default_factory=list)    # (tools,) bool, inserted past INSIDE_DEPTH_M
     holding: list = dataclasses.field(default_factory=list)   # (tools,) bool, its jaws hold the bowel
     jaw_closed: list = dataclasses.field(default_factory=list)  # (tools,) bool, the jaw at or below its closing angle
@@ -145,6 +145,7 @@ class Tracer:
         pinch_now = pinches(physics)
         floor = float(data.geom_xpos[self._floor][2] + model.geom_size[self._floor][2]) if self._floor >= 0 else 0.0
         tips, shafts, forces, walls, seen, inside, holding, closed, pinch, height, centred = ([] for _ in range(11))
+        axis, radius = physics.dense_axis(), physics.intestine().radius  # what may hide a tool
         for tool in self.tools:
             tip = physics.working_point(tool)
             trocar = physics.named.data.xpos[f"{tool}_trocar"]
@@ -153,7 +154,7 @@ class Tracer:
             shafts.append(direction / max(np.linalg.norm(direction), 1e-12))
             forces.append(np.array(physics.named.data.sensordata[f"{tool}_force"][:3], dtype=float))
             walls.append(self._touches_wall(model, data, tool))
-            seen.append(self._in_view(model, data, tip))
+            seen.append(physics.tool_seen(tool, axis, radius) if self._camera >= 0 else True)
             where = laparoscope.image_point(model, data, self._camera, tip) if self._camera >= 0 else None
             centred.append(where is not None and max(abs(where[0]), abs(where[1])) <= laparoscope.CENTRE_FRACTION)
             inside.append(float(data.qpos[self._depth[tool]]) > INSIDE_DEPTH_M)
@@ -193,18 +194,6 @@ class Tracer:
                 if mujoco.mj_geomDistance(model, data, geom, wall, WALL_CONTACT_M, None) < WALL_CONTACT_M:
                     return True
         return False
-
-    def _in_view(self, model, data, point) -> bool:
-        """Inside the laparoscope's view cone (its fovy, a square image)."""
-        if self._camera < 0:
-            return True
-        offset = np.asarray(point) - data.cam_xpos[self._camera]
-        local = data.cam_xmat[self._camera].reshape(3, 3).T @ offset  # camera frame: looks along -z
-        ahead = -local[2]
-        if ahead <= 0.0:
-            return False
-        half = np.tan(np.radians(model.cam_fovy[self._camera]) / 2.0)
-        return bool(abs(local[0]) <= half * ahead and abs(local[1]) <= half * ahead)
 
 
 def _body_of_tool(model, body: int, tool: str) -> bool:

@@ -257,6 +257,25 @@ class Physics(dm_mujoco.Physics):
                      margin: float = 0.8) -> bool:
         """Whether the laparoscope sees `tool`'s working point: inside `margin` of its image's half
         extents and no tube (the bowel's `axis`, m, of `radius`, m) across its line of sight."""
+        return self.point_visible(self.working_point(tool), axis, radius, margin)
+
+    def tool_seen(self, tool: str, axis: np.ndarray | None = None, radius: float | None = None) -> bool:
+        """Whether the laparoscope sees some of `tool`'s last SEEN_REACH_M: one of SEEN_POINTS points
+        along its shaft, from the working point back, inside the image with no tube across its line
+        of sight. What the score counts as visible: it agrees with the segmentation the camera
+        draws (some pixel of the jaw or paddle) on 96 % of the ticks of three scripted episodes
+        (tests/python/test_tasks.py), where the working point alone agrees on 74 %."""
+        tip = self.working_point(tool)
+        shaft = tip - self.named.data.xpos[f"{tool}_trocar"]
+        shaft = shaft / math.sqrt(float((shaft * shaft).sum()))
+        axis = self.dense_axis() if axis is None else axis
+        return any(self.point_visible(tip - back * shaft, axis, radius, 1.0)
+                   for back in np.linspace(0.0, SEEN_REACH_M, SEEN_POINTS))
+
+    def point_visible(self, point: np.ndarray, axis: np.ndarray | None = None, radius: float | None = None,
+                      margin: float = 0.8) -> bool:
+        """Whether the laparoscope sees `point` (m): inside `margin` of its image's half extents and
+        no tube (the bowel's `axis`, m, of `radius`, m) across its line of sight."""
         model, data = self.model.ptr, self.data.ptr
         camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "laparoscope")
         if camera < 0:
@@ -264,14 +283,13 @@ class Physics(dm_mujoco.Physics):
         axis = self.dense_axis() if axis is None else axis
         radius = self.intestine().radius if radius is None else radius
         eye, frame = data.cam_xpos[camera], data.cam_xmat[camera].reshape(3, 3)
-        tip = self.working_point(tool)
-        local = ((tip - eye)[:, None] * frame).sum(axis=0)  # camera frame: x right, y up, looking along -z
+        local = ((point - eye)[:, None] * frame).sum(axis=0)  # camera frame: x right, y up, looking along -z
         if local[2] >= 0.0:
             return False
         half = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)  # fovy is vertical
         if max(abs(local[0]), abs(local[1])) / -local[2] > margin * half:  # inside a square image, the narrowest
             return False
-        sight = tip - eye
+        sight = point - eye
         length2 = float((sight * sight).sum())
         along = np.clip(((axis - eye) * sight).sum(axis=1) / length2, 0.0, 1.0)
         gap = axis - (eye + along[:, None] * sight)
@@ -717,6 +735,8 @@ class BowelTask(base.Task):
 
 
 REACH_DEG = 55.0  # a tool reaches a point when its shaft, pointed at it, leans at most this much
+SEEN_REACH_M = 0.02  # a tool is seen where some of its last 2 cm is (Physics.tool_seen) ...
+SEEN_POINTS = 3      # ... tested at its working point and 1 and 2 cm back
 READY_CLEARANCE_M = 0.04  # a tool's start: its working point this far above the bowel (m) ...
 READY_MIN_DEPTH_M = 0.03  # ... at least this far in (m) ...
 READY_APART_M = 0.03      # ... and this far from the other tools' (m)
