@@ -188,26 +188,34 @@ def display_environment(display: str) -> dict:
     return env
 
 
+def teleop_typed(env: dict, options: list[str], first_line: str, window_name: str, keys: list[str]):
+    """`python -m viscera teleop clear_area --seed 3 OPTIONS` on the display, its window found by
+    name and focused, then xdotool's command KEYS; the process once the episode ends, its output
+    and its errors."""
+    process = subprocess.Popen([sys.executable, "-m", "viscera", "teleop", "clear_area", "--seed", "3", *options],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = process.stdout.readline()
+        assert line.startswith(first_line), line + process.stderr.read()
+        window = subprocess.run(["xdotool", "search", "--sync", "--limit", "1", "--name", window_name], env=env,
+                                capture_output=True, text=True, timeout=60).stdout.split()[0]
+        subprocess.run(["xdotool", "windowfocus", "--sync", window], env=env, check=True, timeout=30)
+        subprocess.run(["xdotool", *keys], env=env, check=True, timeout=30)
+        out_text, err = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    return process, out_text, err
+
+
 @needs_display_tools
 def test_key_presses_in_the_viewer_move_the_active_tool_and_switch_tools(display, tmp_path):
     from viscera.recording import load
     out = tmp_path / "keys.npz"
     env = display_environment(display)
-    process = subprocess.Popen([sys.executable, "-m", "viscera", "teleop", "clear_area", "--seed", "3",
-                                "--device", "keyboard", "--keys", "step", "--time-limit", "5", "--record", str(out)],
-                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        line = process.stdout.readline()
-        assert line.startswith("teleop clear_area"), line + process.stderr.read()
-        window = subprocess.run(["xdotool", "search", "--sync", "--limit", "1", "--name", "MuJoCo"], env=env,
-                                capture_output=True, text=True, timeout=60).stdout.split()[0]
-        subprocess.run(["xdotool", "windowfocus", "--sync", window], env=env, check=True, timeout=30)
-        keys = ["Home"] * 4 + ["Up", "Up", "Left", "Return", "Next", "Home", "Home", "Delete"]
-        subprocess.run(["xdotool", "key", "--delay", "30"] + keys, env=env, check=True, timeout=30)
-        out_text, err = process.communicate(timeout=120)  # the episode's 5 s time limit ends it
-    finally:
-        if process.poll() is None:
-            process.kill()
+    keys = ["key", "--delay", "30"] + ["Home"] * 4 + ["Up", "Up", "Left", "Return", "Next", "Home", "Home", "Delete"]
+    process, out_text, err = teleop_typed(env, ["--keys", "step", "--time-limit", "5", "--record", str(out)],
+                                          "teleop clear_area", "MuJoCo", keys)  # the 5 s time limit ends it
     assert process.returncode == 0 and "Traceback" not in err, err
     assert "success: no" in out_text, out_text
     recording = load(out)
@@ -237,22 +245,12 @@ def test_a_held_key_moves_the_tool_at_its_velocity_limit_until_released(display,
     from viscera.recording import load
     out = tmp_path / "held.npz"
     env = display_environment(display)
-    process = subprocess.Popen([sys.executable, "-m", "viscera", "teleop", "clear_area", "--seed", "3",
-                                "--time-limit", "6", "--record", str(out)],
-                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        line = process.stdout.readline()
-        assert line.startswith("teleop clear_area (seed 3): the held keys drive the tools"), line + process.stderr.read()
-        window = subprocess.run(["xdotool", "search", "--sync", "--limit", "1", "--name", "viscera teleop"], env=env,
-                                capture_output=True, text=True, timeout=60).stdout.split()[0]
-        subprocess.run(["xdotool", "windowfocus", "--sync", window], env=env, check=True, timeout=30)
-        # the holds' lengths are the input itself (a person holding a key), not a wait for something
-        subprocess.run(["xdotool", "keydown", "Home", "sleep", "0.6", "keyup", "Home", "key", "Next",
-                        "keydown", "Up", "sleep", "0.4", "keyup", "Up"], env=env, check=True, timeout=30)
-        out_text, err = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            process.kill()
+    # the holds' lengths are the input itself (a person holding a key), not a wait for something
+    keys = ["keydown", "Home", "sleep", "0.6", "keyup", "Home", "key", "Next", "keydown", "Up", "sleep", "0.4",
+            "keyup", "Up"]
+    process, out_text, err = teleop_typed(env, ["--time-limit", "6", "--record", str(out)],
+                                          "teleop clear_area (seed 3): the held keys drive the tools", "viscera teleop",
+                                          keys)
     assert process.returncode == 0 and "Traceback" not in err, err
     recording = load(out)
     names = [f"{t}_{c}" for t in ("grasper", "retractor") for c in COORDINATES if not (t == "retractor" and c == "jaw")]
