@@ -446,6 +446,26 @@ def bc_results() -> str:
     return _rows(header, rows)
 
 
+def haptics_runs() -> str:
+    """From docs/haptics/bench.json and bench_busy.json (python python/tools/bench_haptics.py --runs 3 [--busy])."""
+    rows = []
+    for name in ("bench.json", "bench_busy.json"):
+        record = _json(f"haptics/{name}")
+        for number, r in enumerate(record["runs"], start=1):
+            hold = r["hold"]
+            rows.append([record["other_cores"], str(number), f"{r['rate_hz']:.1f}", f"{100 * r['deadline_misses']:.3f} %",
+                         f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f} / {r['latency_max_ms']:.2f}",
+                         f"{r['passivity_min_j']:.1g}",
+                         f"{100 * hold['depth_force_relative_oscillation']:.3f} % / "
+                         f"{100 * hold['tissue_force_relative_oscillation']:.3f} %",
+                         f"{r['session']['ticks_behind']} of {r['session']['ticks']:,}",
+                         f"{1e3 * r['simulation_behind_max_s']:.0f} ms"])
+    rows.append(["*goal*", "", "1000", "at most 0.1 %", "p99 at most 2", "at least -0.001", "at most 5 %", "", ""])
+    return _rows(["other cores", "run", "rate (Hz)", "deadline misses", "latency p50 / p99 / max (ms)",
+                  "passivity, least energy put in (J)", "held contact: depth / tissue force oscillation",
+                  "session ticks behind real time", "simulation behind the device, at most"], rows)
+
+
 def bc_reevaluations() -> str:
     """The committed policies' successes before and after each change of the tasks (bc.py --reevaluate)."""
     record = _json("learning/bc.json")

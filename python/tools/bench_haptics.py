@@ -1,6 +1,6 @@
 """The haptic loop's benchmark: the socket device driven at 1 kHz while the task runs in real time.
 
-    python python/tools/bench_haptics.py --json OUT [--duration 60] [--hold 5] [--rate 1000]
+    python python/tools/bench_haptics.py --json OUT [--duration 60] [--hold 5] [--rate 1000] [--runs 3] [--busy]
 
 A headless teleop session of clear_area (seed 0, both tools; viscera.teleop.session) runs in
 real time with a SocketDevice; the reference client (viscera.teleop.haptic_client) drives it
@@ -25,7 +25,9 @@ hand had put into the coupling; negative is energy the coupling gave); hold: the
 coupling force and tissue force over the hold's last 3 s: mean, peak-to-peak, and oscillation
 (peak-to-peak less a straight-line fit: the bowel settles slowly under a held tool, a drift that
 is not an oscillation); the session's ticks and ticks behind real time; the device's counters;
-the goals and whether each is met. The goals (issue 29, on a 2-core machine): misses <= 0.1 %,
+the goals and whether each is met. With `--runs N` the JSON holds each run (`runs`), the worst of
+each figure (`worst`) and whether every run met each goal; `--busy` keeps every other core busy
+(a spinning process on each) for the whole bench. The goals (issue 29, on a 2-core machine): misses <= 0.1 %,
 p99 <= 2 ms, no energy gained (passivity_min_j >= -1 mJ), no oscillation in the held contact
 (oscillation <= HOLD_OSCILLATION of the mean, for both forces).
 """
@@ -93,7 +95,9 @@ def plan(session: Session, duration_s: float, hold_s: float) -> list[dict]:
 
 def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) -> dict:
     device = SocketDevice(port=0)
-    session = Session(TASK, seed=SEED, device=device, time_limit_s=duration_s + hold_s + 60.0, record=False)
+    # the hand on the device holds both tools: the laparoscope stays where the episode aimed it
+    session = Session(TASK, seed=SEED, device=device, time_limit_s=duration_s + hold_s + 60.0, record=False,
+                      camera="fixed")
     with tempfile.TemporaryDirectory() as folder:
         plan_file, out_file = pathlib.Path(folder, "plan.json"), pathlib.Path(folder, "client.json")
         plan_file.write_text(json.dumps(plan(session, duration_s, hold_s)))
@@ -119,7 +123,7 @@ def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) ->
         "client_waits": "spins" if spin else "sleeps, then spins",
         **{k: measured[k] for k in ("rate_hz", "deadline_misses", "latency_p50_ms", "latency_p99_ms",
                                     "latency_p999_ms", "latency_max_ms", "lost", "skipped", "passivity_min_j",
-                                    "passivity_final_j")},
+                                    "passivity_final_j", "simulation_behind_max_s", "simulation_behind_final_s")},
         # the held contact over its last 3 s: peak-to-peak, and oscillation (peak-to-peak less a
         # straight-line drift: the bowel settles slowly under a held tool), against the mean
         "hold": {"tool": "grasper", "depth_force_mean_n": depth_mean,
@@ -152,6 +156,26 @@ def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) ->
     return report
 
 
+SUMMARY = ("rate_hz", "deadline_misses", "latency_p50_ms", "latency_p99_ms", "passivity_min_j",
+           "simulation_behind_max_s")
+
+
+class Busy:
+    """The other cores kept busy (a process spinning on each but one), for the loaded case."""
+
+    def __init__(self, enabled: bool):
+        count = max(0, (os.cpu_count() or 1) - 1) if enabled else 0
+        self.processes = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        for process in self.processes:
+            process.kill()
+            process.wait()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", required=True, help="write the report here")
@@ -159,15 +183,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hold", type=float, default=5.0, help="s of the held contact (default 5, at least 3)")
     parser.add_argument("--rate", type=float, default=1000.0, help="the client's POSEs per second (default 1000)")
     parser.add_argument("--spin", action="store_true", help="the client spins through whole periods")
+    parser.add_argument("--runs", type=int, default=1, help="consecutive runs, each reported (default 1)")
+    parser.add_argument("--busy", action="store_true", help="keep every other core busy meanwhile")
     args = parser.parse_args(argv)
-    if not args.duration > 0 or not args.hold >= 3.0 or not args.rate > 0:
-        parser.exit(2, "bench_haptics: --duration and --rate must be positive, --hold at least 3 s\n")
-    report = run(args.duration, args.hold, args.rate, args.spin)
+    if not args.duration > 0 or not args.hold >= 3.0 or not args.rate > 0 or not args.runs >= 1:
+        parser.exit(2, "bench_haptics: --duration, --rate and --runs must be positive, --hold at least 3 s\n")
+    with Busy(args.busy):
+        reports = [run(args.duration, args.hold, args.rate, args.spin) for _ in range(args.runs)]
+    report = dict(reports[0]) if args.runs == 1 else {
+        "runs": reports, "worst": {"deadline_misses": max(r["deadline_misses"] for r in reports),
+                                   "latency_p99_ms": max(r["latency_p99_ms"] for r in reports),
+                                   "passivity_min_j": min(r["passivity_min_j"] for r in reports),
+                                   "simulation_behind_max_s": max(r["simulation_behind_max_s"] for r in reports)},
+        "goals": {goal: all(r["goals"][goal] for r in reports) for goal in reports[0]["goals"]}}
+    report["other_cores"] = "busy" if args.busy else "idle"
     report["command"] = "python python/tools/bench_haptics.py " + " ".join(argv if argv is not None else sys.argv[1:])
     pathlib.Path(args.json).write_text(json.dumps(report, indent=2) + "\n")
-    print(json.dumps({k: report[k] for k in ("rate_hz", "deadline_misses", "latency_p50_ms", "latency_p99_ms",
-                                             "passivity_min_j", "hold", "session", "goals")}, indent=2))
-    return 0 if all(report["goals"].values()) else 1
+    for number, each in enumerate(reports, start=1):
+        print(f"run {number}: " + ", ".join(f"{k} {each[k]:.4g}" for k in SUMMARY) + f"; goals met: {all(each['goals'].values())}")
+    return 0 if all(all(r["goals"].values()) for r in reports) else 1
 
 
 if __name__ == "__main__":

@@ -23,6 +23,10 @@ It measures (the JSON's keys):
   from q_k to q_{k+1} (rad, m; N m, N). A passive coupling keeps W >= 0; its minimum over the run
   is the most energy the coupling ever gave the hand;
 - skipped: periods the client itself woke too late to send in; scheduling: what realtime_thread got;
+- simulation_behind_max_s, simulation_behind_final_s: how far the simulation was behind the
+  device's clock (the time since the first answer less the simulated time since it, from each
+  FORCE's sim_time): the coupling goes on being rendered at the client's rate when the
+  simulation cannot keep real time, and this says by how much it could not;
 - phases: per phase of the plan, its net work W and, for a held phase, the mean, the
   peak-to-peak and the oscillation (peak-to-peak less a straight-line drift) of each tool's
   coupling force and tissue force (norm) over the phase's last 3 s.
@@ -265,6 +269,7 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress,
     latencies = np.full(periods, np.nan)
     send_times = np.full(periods, np.nan)             # perf_counter s, for a trace
     answered_in_time = np.zeros(periods, dtype=bool)
+    sim_times = np.full(periods, np.nan)              # s, the simulated time each in-time FORCE came from
     phase_of = np.zeros(periods, dtype=np.int32)
     coupling = np.zeros((periods, len(indices), 5))   # the force rendered during each period (N m, N)
     tissue = np.zeros((periods, len(indices), 3))
@@ -315,6 +320,7 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress,
                 force[entry.tool], tissue_now[entry.tool] = entry.coupling, entry.tissue
             if answered == k:
                 answered_in_time[k] = True
+                sim_times[k] = reply.sim_time_s
                 break
         for j, i in enumerate(indices):
             coupling[k, j], tissue[k, j] = force[i], tissue_now[i]
@@ -340,7 +346,14 @@ def _drive(client: Client, info: dict, motion: Motion, rate_hz: float, progress,
             latencies[sent_at.pop(reply.sequence)] = time.perf_counter() - reply.client_time_s
     sent = periods - skipped
     measured = latencies[np.isfinite(latencies)]
+    # how far the simulation fell behind the device's clock: the time since the first answer less
+    # the simulated time since it (the session drops lost time; the coupling is rendered anyway)
+    known = np.isfinite(sim_times) & np.isfinite(send_times)
+    behind = ((send_times[known] - send_times[known][0]) - (sim_times[known] - sim_times[known][0])
+              if known.any() else np.zeros(1))
     result = {
+        "simulation_behind_max_s": float(behind.max()),
+        "simulation_behind_final_s": float(behind[-1]),
         "rate_hz": sent / elapsed,
         "periods": periods,
         "sent": sent,

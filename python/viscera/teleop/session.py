@@ -82,6 +82,7 @@ class Session:
         self.camera_mode = camera
         self.scope = laparoscope.Laparoscope.of(self.physics, optics_deg) if camera != "fixed" else None
         self.camera_pose = self.scope.initial.copy() if self.scope is not None else None
+        self._applied = None  # the pose last written into the model
         self.ticks = 0
         self.ticks_behind = 0
         self.lost_s = 0.0
@@ -122,7 +123,9 @@ class Session:
                 reach = laparoscope.SPEED * dt
                 step = np.clip(np.clip(target, self.scope.lower, self.scope.upper) - self.camera_pose, -reach, reach)
                 self.camera_pose = self.camera_pose + step
-        self.scope.apply(self.physics, self.camera_pose)
+        if self._applied is None or not np.array_equal(self._applied, self.camera_pose):  # a still scope costs nothing
+            self.scope.apply(self.physics, self.camera_pose)
+            self._applied = self.camera_pose.copy()
 
     # -- the tools, in user units (deg, m), COORDINATES order
     def _find_tools(self) -> None:
