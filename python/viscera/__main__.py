@@ -497,10 +497,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     from viscera.teleop.devices import DEVICES
     teleop_parser = commands.add_parser(
-        "teleop", help="drive a task's tools yourself in MuJoCo's viewer, then get the score",
-        description="Open a task's randomised episode in MuJoCo's viewer, through the laparoscope, and drive its "
-        "tools with a device, in real time; the score is printed when the episode ends (success, time limit, "
-        "or the window closed). Needs a display. docs/rehearsal.md has the bindings and the socket protocol.")
+        "teleop", help="drive a task's tools and the laparoscope yourself, then get the score",
+        description="Open a task's randomised episode through the laparoscope (held keys: teleop's own window; "
+        "--keys step and the other devices: MuJoCo's viewer) and drive its tools and the scope with a device, in "
+        "real time; the score is printed when the episode ends (success, time limit, or the window closed). Needs "
+        "a display. docs/rehearsal.md has the bindings and the socket protocol.")
     task_arguments(teleop_parser, seed_required=False)
     teleop_parser.add_argument("--device", choices=DEVICES, default="keyboard",
                                help="what drives the tools (default keyboard; socket: an external haptic device)")

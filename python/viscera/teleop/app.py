@@ -1,5 +1,6 @@
-"""`python -m viscera teleop TASK`: a task in MuJoCo's viewer, seen through the laparoscope, its
-tools driven by a person, with an overlay (the bindings, the active tool, each tool's force,
+"""`python -m viscera teleop TASK`: a task seen through the laparoscope, in teleop's own window
+(viscera.teleop.window: held keys) or MuJoCo's viewer (--keys step, the other devices), its
+tools and the scope driven by a person, with an overlay (the bindings, the active tool, each tool's force,
 the time, falling behind real time, and a warning while a tissue threshold is crossed); the
 score is printed when the episode ends (success, failure, time limit, or the window closed).
 
