@@ -18,8 +18,8 @@ docs/validation/contact_stability.json (python python/tools/contact_stability.py
 (python python/tools/validation/contacts/study.py), docs/validation/tolerance.json
 (python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
 python/tools/reference_band.py), docs/learning/*.json (python/tools/learning: dataset_speed.py,
-bc.py, rl_grasp_lift.py) or the plugin's table of config keys
-(plugin/mujoco/keys.h, read through the installed viscera).
+bc.py, rl_grasp_lift.py), the plugin's table of config keys
+(plugin/mujoco/keys.h, read through the installed viscera) or the table of tissue parameters (viscera.tissue).
 """
 
 from __future__ import annotations
@@ -391,6 +391,17 @@ def config_keys() -> str:
     rows = [[f"`{name}`", doc["values"], doc["unit"], doc["default"], doc["meaning"]]
             for name, doc in viscera.attribute_docs().items()]
     return _rows(["key", "values", "unit", "default", "meaning"], rows)
+
+
+def tissue_parameters() -> str:
+    """From the table of tissue parameters (viscera.tissue), through the installed package."""
+    from viscera import tissue
+
+    def number(x: float) -> str:
+        return f"{x:g}"
+    rows = [[f"`{p.name}`", p.keys, number(p.value), "fixed" if p.drawn is None else " to ".join(map(number, p.drawn)),
+             p.unit, p.measured, p.chosen_by] for p in tissue.PARAMETERS]
+    return _rows(["parameter", "config keys", "value", "tasks draw", "unit", "measured", "chosen by"], rows)
 
 
 # A single figure inside a sentence: <!-- value: FILE KEY FORMAT -->TEXT<!-- end value -->, FILE

@@ -302,6 +302,31 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
                   raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
   }
   if (!c->given[VSC_KEY_grasp_reach]) g->reach = 2.0 * c->rod.radius;
+  if (!c->given[VSC_KEY_grasp_lever]) g->lever = 0.0;  // derived each step (grasps.c)
+  int hinges = 0;
+  for (int i = 0; i < joints; ++i) hinges += r->m->jnt_type[g->joint[i]] == mjJNT_HINGE;
+  if (c->given[VSC_KEY_grasp_lever] && hinges == 0)
+    return fail(r, "attribute 'grasp_lever' = '%s': no jaw in 'grasp_joints' is a hinge (a slide jaw's pinch is "
+                "its actuators' force)", raw(r, "grasp_lever"));
+  // the actuators that squeeze each jaw: on its joint, with a force affine in control and
+  // position (motor, position, general affine), so that the plugin can evaluate it where the
+  // jaws meet the tissue
+  for (int i = 0; i < joints; ++i) {
+    g->actuator_count[i] = 0;
+    for (int a = 0; a < r->m->nu; ++a) {
+      if (r->m->actuator_trntype[a] != mjTRN_JOINT || r->m->actuator_trnid[2 * a] != g->joint[i]) continue;
+      const char* name = mj_id2name(r->m, mjOBJ_ACTUATOR, a);
+      if (r->m->actuator_gaintype[a] != mjGAIN_FIXED ||
+          (r->m->actuator_biastype[a] != mjBIAS_NONE && r->m->actuator_biastype[a] != mjBIAS_AFFINE))
+        return fail(r, "attribute 'grasp_joints' = '%s': actuator '%s' on jaw joint '%s' must have a fixed gain and "
+                    "no or an affine bias (motor, position, general) for the jaws' pinch",
+                    raw(r, "grasp_joints"), name ? name : "(unnamed)", mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
+      if (g->actuator_count[i] == VSC_MAX_JAW_ACTUATORS)
+        return fail(r, "attribute 'grasp_joints' = '%s': jaw joint '%s' has more than %d actuators",
+                    raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]), VSC_MAX_JAW_ACTUATORS);
+      g->actuator[i][g->actuator_count[i]++] = a;
+    }
+  }
   return 0;
 }
 
@@ -483,6 +508,7 @@ static void core_defaults(vsc_plugin_config* c) {
   c->step = vsc_default_step_options();
   c->step.sleep = vsc_default_sleep_options();
   c->skin = vsc_default_skin_def();
+  c->damage = vsc_default_damage_limits();
 }
 
 int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c, char* error, int error_size) {

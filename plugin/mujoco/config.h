@@ -7,6 +7,7 @@
 #include <mujoco/mujoco.h>
 
 #include "keys.h"
+#include "viscera/vsc_damage.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_resolution.h"
 #include "viscera/vsc_rod.h"
@@ -76,18 +77,27 @@ const char* const* vsc_plugin_allowed_values(const char* key);
 /// Most grasping jaws one intestine serves.
 #define VSC_MAX_GRASPERS 8
 
+/// Most actuators driving one jaw joint that its pinch sums.
+#define VSC_MAX_JAW_ACTUATORS 4
+
 /// Jaws that take hold of the axis (see grasps.c): grasper i's anchor is
 /// site `site[i]`; it is closed while joint `joint[i]`'s position is at most
-/// `closed_below`.
+/// `closed_below`. The actuators on the joint squeeze the held tissue (the
+/// pinch); the hold slips past 2 `friction` x pinch (two jaw faces), and past
+/// `slip_force` whatever the pinch.
 typedef struct vsc_grasper_config {
   int count;                     ///< graspers (0: none)
   int site[VSC_MAX_GRASPERS];    ///< site ids: where the jaws hold
   int joint[VSC_MAX_GRASPERS];   ///< hinge or slide joint ids: the jaw opening
+  int actuator[VSC_MAX_GRASPERS][VSC_MAX_JAW_ACTUATORS];  ///< actuator ids on each jaw joint
+  int actuator_count[VSC_MAX_GRASPERS];  ///< 0: nothing drives the jaw, only slip_force limits its hold
   double closed_below;           ///< jaw position (rad or m) at or below which it is closed
   double reach;                  ///< farthest axis point a closing jaw takes (m, from the site)
   double stiffness;              ///< hold spring (N/m)
   double damping;                ///< hold damping (N s/m)
-  double slip_force;             ///< the hold slips when its spring pulls harder (N)
+  double slip_force;             ///< the hold slips when its spring pulls harder (N), whatever the pinch
+  double friction;               ///< jaw face on serosa: slips past 2 friction pinch (dimensionless)
+  double lever;                  ///< hinge jaws: pinch = torque / lever (m); 0: the hinge axis's distance to the site
 } vsc_grasper_config;
 
 /// Most other intestine instances one excludes from its contacts ('exclude').
@@ -117,6 +127,7 @@ typedef struct vsc_plugin_config {
   int point_count;
   int* pinned;                ///< pinned control point indices
   vsc_grasper_config grasp;   ///< jaws that hold the axis
+  vsc_damage_limits damage;   ///< where the wall perforates, bruises and tears
   int exclude[VSC_MAX_EXCLUDED];  ///< plugin instance ids of the intestines it does not collide with
   int exclude_count;
   unsigned char given[VSC_KEY_COUNT];  ///< 1 where the model gave the key (by VSC_KEY_ index)

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "config.h"
+#include "grasps.h"
 #include "intestine.h"
 #include "state_layout.h"
 #include "viscera/viscera.h"  // the core's whole public API: a check that the umbrella compiles
@@ -134,6 +135,27 @@ VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out
   vsc_plugin_config_free(&config);
   return 0;
 }
+
+/// Each grasper's pinch now and the pull its hold would slip at, as the plugin
+/// takes them (grasps.h): out[2 i] = pinch (N; -1: no actuator drives the jaw),
+/// out[2 i + 1] = slip pull (N), for the first `capacity` graspers. Returns the
+/// grasper count, or -1 if `instance` is not a viscera.intestine.
+VSC_EXPORT int viscera_grasp_pinches(const mjModel* m, const mjData* d, int instance, double* out, int capacity) {
+  vsc_plugin_config config;
+  if (read_intestine(m, instance, &config)) return -1;
+  const vsc_grasper_config* g = &config.grasp;
+  for (int i = 0; i < g->count && i < capacity; ++i) {
+    out[2 * i] = vsc_mujoco_grasp_pinch(m, d, g, i);
+    out[2 * i + 1] = vsc_mujoco_grasp_slip_pull(g, out[2 * i]);
+  }
+  int count = g->count;
+  vsc_plugin_config_free(&config);
+  return count;
+}
+
+/// The colours the renderer draws the wall's damage in (intestine.h): out =
+/// rgb of a full bruise, rgb of a tear, in [0, 1].
+VSC_EXPORT void viscera_damage_colours(double out[6]) { vsc_damage_colours(out); }
 
 /// Rebuild data `d`'s caches of intestine `instance` from model `m`'s config as
 /// it now is (vsc_intestine_reconfigure): after the config's values were

@@ -126,6 +126,7 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
   memset(state + l.offset[VSC_STATE_GRASPS], 0, sizeof(double) * (size_t)l.size[VSC_STATE_GRASPS]);
   vsc_rest_wake_all(n, state, state + l.offset[VSC_STATE_REST]);
   model_gravity(m, state + l.offset[VSC_STATE_GRAVITY]);
+  memset(state + l.offset[VSC_STATE_DAMAGE], 0, sizeof(double) * (size_t)l.size[VSC_STATE_DAMAGE]);
 }
 
 // Build this instance's caches for `m` and make them d's: the model's state
@@ -536,7 +537,16 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
                      it->world.geoms[i].position[2] - com[2]};
     vsc_wrench_add(wrench + 6 * body, 1.0, w, w + 3, arm);
   }
-  vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, state + l.offset[VSC_STATE_GRASPS], wrench);
+  vsc_mujoco_holds_release(m, d, &it->config.grasp, &it->holds, it->config.rod.control_count,
+                           state + l.offset[VSC_STATE_POSITIONS], state + l.offset[VSC_STATE_GRASPS], wrench);
+  // the wall's damage: each hold's pinch over the step (a hold that slipped pinched until it did),
+  // and segments stretched past tearing
+  int n = it->config.rod.control_count;
+  mjtNum* damage = state + l.offset[VSC_STATE_DAMAGE];
+  for (int h = 0; h < it->holds.count; ++h)
+    if (it->holds.pinch[h] > 0.0)
+      vsc_damage_pinch(&it->config.damage, n, it->holds.grasps[h].abscissa, it->holds.pinch[h], m->opt.timestep, damage);
+  vsc_damage_stretch(&it->config.damage, n, it->config.rod.length, state + l.offset[VSC_STATE_POSITIONS], damage);
   if (world->geom_count <= it->world.count) return;  // no partner this step
   int g = it->world.count;
   for (int p = 0; p < it->partner_count; ++p) {
@@ -599,6 +609,22 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   count_trouble(d, it, state, status, &report, step.substeps);
 }
 
+// The skin's colour where the wall is bruised (0 to 1) or torn: the healthy colour darkens towards
+// a bruise's purple as it deepens; torn, dark red. Python's meshcat viewer draws the same
+// (viscera_damage_colours).
+static const float vsc_bruise_rgb[3] = {0.42f, 0.12f, 0.32f};
+static const float vsc_torn_rgb[3] = {0.30f, 0.02f, 0.02f};
+
+void vsc_damage_colour(const float healthy[4], double bruise, int torn, float out[4]) {
+  float b = (float)(bruise < 0.0 ? 0.0 : (bruise > 1.0 ? 1.0 : bruise));
+  for (int c = 0; c < 3; ++c) out[c] = torn ? vsc_torn_rgb[c] : (1.0f - b) * healthy[c] + b * vsc_bruise_rgb[c];
+  out[3] = healthy[3];
+}
+
+void vsc_damage_colours(double out[6]) {
+  for (int c = 0; c < 3; ++c) out[c] = vsc_bruise_rgb[c], out[3 + c] = vsc_torn_rgb[c];
+}
+
 static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
@@ -614,6 +640,7 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   double band_to = c->given[VSC_KEY_marked_band] ? c->marked_band[1] / c->rod.length : -1.0;
   int samples = vsc_rod_sample_count(it->rod), n = it->config.rod.control_count;
   int count = c->given[VSC_KEY_draw_capsules] ? c->draw_capsules : samples - 1;
+  const mjtNum* damage = q + it->layout.offset[VSC_STATE_DAMAGE];
   double r_min = it->config.skin.radius_min, r_max = it->config.skin.radius_max;
   mjtNum from[3], to[3];
   for (int a = 0; a < count; ++a) {
@@ -630,14 +657,24 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
       vsc_rod_sample_point(it->rod, a, from);
       vsc_rod_sample_point(it->rod, a + 1, to);
     }
+    // the wall's damage here (vsc_damage.h): bruise between the two control points around, torn at the nearer
+    int j = (int)floor(x) < n - 2 ? (int)floor(x) : n - 2;
+    double w = x - (double)j;
+    double bruise = (1.0 - w) * damage[VSC_DAMAGE_SIZE * j] + w * damage[VSC_DAMAGE_SIZE * (j + 1)];
+    int torn = damage[VSC_DAMAGE_SIZE * (w < 0.5 ? j : j + 1) + 1] > 0.0;
+    float drawn[4];
+    vsc_damage_colour(s >= band_from && s <= band_to ? marked : color, bruise, torn, drawn);
     mjvGeom* geom = scn->geoms + scn->ngeom;
-    mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, s >= band_from && s <= band_to ? marked : color);
+    mjv_initGeom(geom, mjGEOM_CAPSULE, NULL, NULL, NULL, drawn);
     mjv_connector(geom, mjGEOM_CAPSULE, radius, from, to);
     geom->category = mjCAT_DYNAMIC;
     // labelled as this plugin instance in segmentation renders (MuJoCo gives decor geoms no label)
     geom->objtype = mjOBJ_PLUGIN;
     geom->objid = instance;
     geom->segid = scn->ngeom;
+    // damaged wall (fully bruised or torn) marked for segmentation: MuJoCo reads dataid only for
+    // meshes, height fields and the like, never for a capsule
+    geom->dataid = torn || bruise >= 1.0 ? VSC_DRAWN_DAMAGED : -1;
     scn->ngeom++;
   }
 }

@@ -30,4 +30,15 @@ int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_
 /// an intestine (the old caches are then kept).
 int vsc_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* error, int error_size);
 
+/// A drawn capsule's dataid where the wall under it is damaged: fully bruised or
+/// torn (vsc_damage.h); -1 elsewhere. Segmentation renders label it apart.
+#define VSC_DRAWN_DAMAGED 1
+
+/// The skin's colour (rgba) over wall bruised `bruise` (0 to 1) or `torn`,
+/// from its `healthy` colour.
+void vsc_damage_colour(const float healthy[4], double bruise, int torn, float out[4]);
+
+/// The colours damage is drawn in: out = bruise rgb (fully bruised), torn rgb.
+void vsc_damage_colours(double out[6]);
+
 #endif  // VISCERA_PLUGIN_INTESTINE_H

@@ -121,7 +121,24 @@
   X(grasp_damping, VSC_KEY_KIND_NONNEGATIVE, FIELD(grasp.damping), 0, 0, "N s/m", VALUE("2"), \
     "the hold's damping") \
   X(grasp_slip_force, VSC_KEY_KIND_POSITIVE, FIELD(grasp.slip_force), 0, 0, "N", VALUE("5"), \
-    "a hold pulling harder slips out of the jaw") \
+    "a hold pulling harder slips out of the jaw, whatever the pinch") \
+  X(grasp_friction, VSC_KEY_KIND_NONNEGATIVE, FIELD(grasp.friction), 0, 0, "-", VALUE("0.8333"), \
+    "friction coefficient of each jaw face on the serosa: a hold slips once it pulls harder than 2 x this x " \
+    "the pinch (two faces; the pinch is the jaw actuators' squeeze, see [grasp](model.md#grasp)). The " \
+    "default is Heijnsdijk et al. (Surg Endosc 2004): 5 N of pull on pig small bowel needed 3.0 N of pinch. " \
+    "A jaw no actuator drives slips at `grasp_slip_force` only") \
+  X(grasp_lever, VSC_KEY_KIND_POSITIVE, FIELD(grasp.lever), 0, 0, "m", DERIVED("the hinge axis to the site"), \
+    "hinge jaws: the pinch is the actuators' torque over this lever, from the hinge to where the jaws meet " \
+    "the tissue. By default the distance from the jaw's hinge axis to its grasp site, each step") \
+  X(damage_perforation_pinch, VSC_KEY_KIND_POSITIVE, FIELD(damage.perforation_pinch), 0, 0, "N", CORE, \
+    "a held pinch at least this perforates the wall at the held point (human small bowel 10.3 +- 2.9 N: " \
+    "Heijnsdijk et al., Surg Endosc 2003); see [damage](model.md#damage)") \
+  X(damage_force_time, VSC_KEY_KIND_POSITIVE, FIELD(damage.force_time_product), 0, 0, "N s", CORE, \
+    "the pinch integrated over a hold's time that bruises the wall fully (histological damage past 300 N s: " \
+    "Barrie et al., Surg Endosc 2018, porcine colon)") \
+  X(damage_tear_strain, VSC_KEY_KIND_POSITIVE, FIELD(damage.tear_strain), 0, 0, "-", CORE, \
+    "a segment between control points stretched past this strain tears (human small intestine fails at " \
+    "140 %: Egorov et al., J Biomech 2002)") \
   X(young_modulus, VSC_KEY_KIND_POSITIVE, FIELD(young_modulus), 0, 0, "Pa", DERIVED("none"), \
     "material: sets `stretch_stiffness` = EA / length and `bending_rigidity` = EI, and turns the bend " \
     "springs and global term off by default (see [material parameters](validation.md#material-parameters))") \

@@ -28,9 +28,15 @@
 //                      every point at its initial position
 //   gravity       3    the gravity (m/s^2) the rest times were counted under: a
 //                      change wakes every point
+//   damage        2n   per control point, its wall's damage (vsc_damage.h):
+//                      bruise in [0, 1] (the force-time product of the pinches
+//                      held there over the one that damages the wall), torn (0
+//                      or 1: perforated by a pinch or torn by overstretching);
+//                      reset writes 0
 #ifndef VISCERA_PLUGIN_STATE_LAYOUT_H
 #define VISCERA_PLUGIN_STATE_LAYOUT_H
 
+#include "viscera/vsc_damage.h"
 #include "viscera/vsc_friction.h"
 #include "viscera/vsc_sleep.h"
 
@@ -48,6 +54,7 @@ typedef enum vsc_state_block {
   VSC_STATE_GRASPS,
   VSC_STATE_REST,
   VSC_STATE_GRAVITY,
+  VSC_STATE_DAMAGE,
   VSC_STATE_BLOCK_COUNT
 } vsc_state_block;
 
@@ -62,7 +69,8 @@ typedef struct vsc_state_layout {
 static const int vsc_state_block_width[VSC_STATE_BLOCK_COUNT] = {
     [VSC_STATE_POSITIONS] = 3, [VSC_STATE_VELOCITIES] = 3, [VSC_STATE_DIVERGENCES] = 1,
     [VSC_STATE_RECOVERIES] = 1, [VSC_STATE_WRENCHES] = 6, [VSC_STATE_FRICTION] = VSC_STICK_SIZE,
-    [VSC_STATE_GRASPS] = VSC_GRASP_STATE_SIZE, [VSC_STATE_REST] = VSC_REST_SIZE, [VSC_STATE_GRAVITY] = 3};
+    [VSC_STATE_GRASPS] = VSC_GRASP_STATE_SIZE, [VSC_STATE_REST] = VSC_REST_SIZE, [VSC_STATE_GRAVITY] = 3,
+    [VSC_STATE_DAMAGE] = VSC_DAMAGE_SIZE};
 
 /// A grasper's status in its first number, by name (static storage, NULL-terminated).
 enum { VSC_GRASP_OPEN = 0, VSC_GRASP_HOLDING = 1, VSC_GRASP_CLOSED_EMPTY = 2 };
@@ -74,13 +82,14 @@ static const char* const vsc_state_block_names[VSC_STATE_BLOCK_COUNT] = {
     [VSC_STATE_POSITIONS] = "positions",   [VSC_STATE_VELOCITIES] = "velocities",
     [VSC_STATE_DIVERGENCES] = "divergences", [VSC_STATE_RECOVERIES] = "recoveries",
     [VSC_STATE_WRENCHES] = "wrenches",     [VSC_STATE_FRICTION] = "friction",
-    [VSC_STATE_GRASPS] = "grasps", [VSC_STATE_REST] = "rest", [VSC_STATE_GRAVITY] = "gravity"};
+    [VSC_STATE_GRASPS] = "grasps", [VSC_STATE_REST] = "rest", [VSC_STATE_GRAVITY] = "gravity",
+    [VSC_STATE_DAMAGE] = "damage"};
 
 /// The layout for n control points, `spheres` collision spheres, `bodies`
 /// bodies and `graspers` graspers: the blocks back to back.
 static inline vsc_state_layout vsc_state_layout_of(int n, int spheres, int bodies, int graspers) {
   vsc_state_layout l;
-  const int items[VSC_STATE_BLOCK_COUNT] = {n, n, 1, 1, bodies, spheres, graspers, n, 1};
+  const int items[VSC_STATE_BLOCK_COUNT] = {n, n, 1, 1, bodies, spheres, graspers, n, 1, n};
   int at = 0;
   for (int b = 0; b < VSC_STATE_BLOCK_COUNT; ++b) {
     l.offset[b] = at;

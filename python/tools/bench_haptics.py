@@ -93,8 +93,10 @@ def plan(session: Session, duration_s: float, hold_s: float) -> list[dict]:
     return [sweep, {"kind": "move", "duration_s": 3.0, "to": to}, {"kind": "hold", "duration_s": hold_s}]
 
 
-def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) -> dict:
-    device = SocketDevice(port=0)
+def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False, haptic_core: int | None = None) -> dict:
+    """One run; `haptic_core`: the server and the client pinned there (this process kept off it)."""
+    pin = haptic_core is not None
+    device = SocketDevice(port=0, cpu=haptic_core)
     # the hand on the device holds both tools: the laparoscope stays where the episode aimed it
     session = Session(TASK, seed=SEED, device=device, time_limit_s=duration_s + hold_s + 60.0, record=False,
                       camera="fixed")
@@ -103,7 +105,8 @@ def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) ->
         plan_file.write_text(json.dumps(plan(session, duration_s, hold_s)))
         client = subprocess.Popen([sys.executable, "-m", "viscera.teleop.haptic_client", "--port", str(device.port),
                                    "--rate", str(rate_hz), "--plan", str(plan_file), "--json", str(out_file)]
-                                  + (["--spin"] if spin else []))
+                                  + (["--spin"] if spin else [])
+                                  + (["--cpu", str(haptic_core)] if pin else []))
         result = None
         try:
             result = session.run(progress=True, on_frame=lambda _: client.poll() is None)
@@ -121,6 +124,7 @@ def run(duration_s: float, hold_s: float, rate_hz: float, spin: bool = False) ->
     report = {
         "task": TASK, "seed": SEED, "duration_s": duration_s, "hold_s": hold_s, "rate_goal_hz": rate_hz,
         "client_waits": "spins" if spin else "sleeps, then spins",
+        "pinned": {"haptic_core": haptic_core, "session_cores": sorted(os.sched_getaffinity(0))} if pin else None,
         **{k: measured[k] for k in ("rate_hz", "deadline_misses", "latency_p50_ms", "latency_p99_ms",
                                     "latency_p999_ms", "latency_max_ms", "lost", "skipped", "passivity_min_j",
                                     "passivity_final_j", "simulation_behind_max_s", "simulation_behind_final_s")},
@@ -185,11 +189,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--spin", action="store_true", help="the client spins through whole periods")
     parser.add_argument("--runs", type=int, default=1, help="consecutive runs, each reported (default 1)")
     parser.add_argument("--busy", action="store_true", help="keep every other core busy meanwhile")
+    parser.add_argument("--pin", action="store_true",
+                        help="the server and the client on the last core, the session on the others")
     args = parser.parse_args(argv)
     if not args.duration > 0 or not args.hold >= 3.0 or not args.rate > 0 or not args.runs >= 1:
         parser.exit(2, "bench_haptics: --duration, --rate and --runs must be positive, --hold at least 3 s\n")
+    cores = sorted(os.sched_getaffinity(0))
+    if args.pin and len(cores) < 2:
+        parser.exit(2, f"bench_haptics: --pin needs two cores, this process may run on {cores}\n")
     with Busy(args.busy):
-        reports = [run(args.duration, args.hold, args.rate, args.spin) for _ in range(args.runs)]
+        if args.pin:  # this process's threads, the simulation's, keep off the haptic core
+            os.sched_setaffinity(0, cores[:-1])
+        try:
+            reports = [run(args.duration, args.hold, args.rate, args.spin, cores[-1] if args.pin else None)
+                       for _ in range(args.runs)]
+        finally:
+            os.sched_setaffinity(0, cores)
     report = dict(reports[0]) if args.runs == 1 else {
         "runs": reports, "worst": {"deadline_misses": max(r["deadline_misses"] for r in reports),
                                    "latency_p99_ms": max(r["latency_p99_ms"] for r in reports),

@@ -1,6 +1,6 @@
 """Fingerprints of the simulation's results, to show a change of code left them bit for bit.
 
-    python python/tools/digest.py [--json out.json] [--seeds 2] [--quiet]
+    python python/tools/digest.py [--json out.json] [--seeds 2] [--quiet] [--without damage]
 
 Run it in two environments (say, a venv with the previous commit installed and one with
 this checkout) and compare the lines: equal lines mean equal results, bit for bit. Each
@@ -23,7 +23,7 @@ import hashlib
 import json
 import pathlib
 
-import viscera  # noqa: F401  first: headless GL backend
+import viscera  # first: headless GL backend
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
@@ -37,17 +37,27 @@ FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 INTEGRATORS = ("leapfrog", "rk4", "symplectic_euler", "implicit")
 
 
+WITHOUT: tuple[str, ...] = ()  # plugin state blocks left out of the hashes (--without)
+
+
 class StateHash:
-    """A running SHA-256 over a model's full physics state."""
+    """A running SHA-256 over a model's full physics state, but the intestines' WITHOUT blocks."""
 
     def __init__(self, model: mujoco.MjModel):
         self.model = model
         self.state = np.empty(mujoco.mj_stateSize(model, FULL))
         self.sha = hashlib.sha256()
+        self.keep = np.ones(self.state.size, dtype=bool)
+        plugin_state = self.state.size - model.npluginstate  # mjSTATE_PLUGIN comes last in the full state
+        for gut in viscera.intestines(model) if WITHOUT else ():
+            for block in WITHOUT:
+                where = gut.layout[block]
+                start = plugin_state + model.plugin_stateadr[gut.instance]
+                self.keep[start + where.start:start + where.stop] = False
 
     def add(self, data: mujoco.MjData) -> None:
         mujoco.mj_getState(self.model, data, self.state, FULL)
-        self.sha.update(self.state.tobytes())
+        self.sha.update((self.state if not WITHOUT else self.state[self.keep]).tobytes())
 
     def hexdigest(self) -> str:
         return self.sha.hexdigest()
@@ -133,7 +143,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=2, help="scripted episodes per task (default 2)")
     parser.add_argument("--json", help="also write the digests to this JSON file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--without", nargs="+", default=[], metavar="BLOCK",
+                        help="leave these plugin state blocks out (say, a block this release adds: damage)")
     args = parser.parse_args(argv)
+    global WITHOUT
+    WITHOUT = tuple(args.without)
     results = run(args.seeds, args.quiet)
     for key, value in results.items():
         print(f"{key:<48} {value}")

@@ -16,7 +16,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 from viscera import _library, gymnasium_ids as _gymnasium_ids  # noqa: E402
 from viscera.intestine import (  # noqa: E402
     PLUGIN_NAME, Intestine, add_to_mjcf, allowed_values, attribute_docs, attribute_names, config_strings,
-    extension_xml, fixed_width_numbers, intestine, intestines, reconfigure, skin, spline_points)
+    damage_colours, extension_xml, fixed_width_numbers, intestine, intestines, reconfigure, skin, spline_points)
 
 __version__ = "0.2.0"
 
@@ -25,6 +25,6 @@ _gymnasium_ids.install()
 
 __all__ = [
     "PLUGIN_LIBRARY", "PLUGIN_NAME", "Intestine", "add_to_mjcf", "allowed_values", "attribute_docs", "attribute_names",
-    "config_strings",
+    "config_strings", "damage_colours",
     "extension_xml", "fixed_width_numbers", "intestine", "intestines", "reconfigure", "skin", "spline_points",
 ]

@@ -80,6 +80,11 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_intestine_reconfigure.restype = ctypes.c_int
             _ctypes_library.viscera_intestine_reconfigure.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
                                                                       ctypes.c_char_p, ctypes.c_int]
+            _ctypes_library.viscera_grasp_pinches.restype = ctypes.c_int
+            _ctypes_library.viscera_grasp_pinches.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
+                                                              ctypes.c_void_p, ctypes.c_int]
+            _ctypes_library.viscera_damage_colours.restype = None
+            _ctypes_library.viscera_damage_colours.argtypes = [ctypes.c_void_p]
             _ctypes_library.viscera_grid_under_axis.restype = ctypes.c_int
             _ctypes_library.viscera_grid_under_axis.argtypes = [
                 ctypes.c_int, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,

@@ -15,13 +15,13 @@ the da Vinci skills simulator: economy of motion, instrument collisions, instrum
 view, excessive force, drops). Safety compares the tissue's loads with published limits, each a
 named constant below with its source.
 
-The grasp's pinch is a model: the plugin's hold is a spring that slips above
-`grasp_slip_force`, and the jaws do not collide. The jaws are taken to meet the tissue at the
-angle where the plugin counts them closed (`grasp_closed_below`, 0.1 rad by default); the jaw's
-position actuator, commanded further closed, squeezes with its spring: torque kp (angle at
-meeting - command), pinch = torque / lever, the lever half the jaw's length. With the abdomen's
-grasper (kp 0.5 N m/rad, 15.5 mm jaw) a fully closed command pinches 6.4 N: about what novices
-use, more than prevents slip, below perforation.
+The grasp's pinch is the plugin's (docs/model.md#grasp): the jaws are taken to meet the tissue at
+the angle where the plugin counts them closed (`grasp_closed_below`, 0.1 rad by default); the
+jaw's position actuator, commanded further closed, squeezes with its spring: torque kp (angle at
+meeting - command), pinch = torque / lever (`grasp_lever`: 7.76 mm, the jaw's middle). The hold
+slips once it pulls harder than the jaws' friction gives at that pinch. With the abdomen's
+grasper (kp 0.5 N m/rad) a fully closed command pinches 6.4 N: about what novices use, more than
+prevents slip, below perforation.
 """
 
 from __future__ import annotations
@@ -105,6 +105,9 @@ class Trace:
     camera_position: list = dataclasses.field(default_factory=list)  # (3,) m, the laparoscope's
     camera_view: list = dataclasses.field(default_factory=list)      # (3,) unit, where it looks
     horizon_deg: list = dataclasses.field(default_factory=list)      # the image's up from the cranial direction
+    damage_max: list = dataclasses.field(default_factory=list)       # the bowel wall's worst bruise, 0 to 1
+    damage_where_m: list = dataclasses.field(default_factory=list)   # m along the bowel from its start, of the worst
+    perforations_where_m: list = dataclasses.field(default_factory=list)  # per tick, a list: m, each torn stretch's middle
     success: bool = False
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -184,6 +187,10 @@ class Tracer:
             trace.camera_position.append(np.zeros(3))
             trace.camera_view.append(np.array([0.0, 0.0, -1.0]))
             trace.horizon_deg.append(0.0)
+        worst, where, torn = damage_summary(physics.intestine(), data)
+        trace.damage_max.append(worst)
+        trace.damage_where_m.append(where)
+        trace.perforations_where_m.append(torn)
         trace.success = bool(env.task.success(physics))
         return pinch_now
 
@@ -203,6 +210,19 @@ def _body_of_tool(model, body: int, tool: str) -> bool:
             return True
         body = int(model.body_parentid[body])
     return False
+
+
+def damage_summary(gut, data) -> tuple[float, float | None, list[float]]:
+    """The bowel wall's damage now (docs/model.md#damage): the worst bruise (0 to 1), where it is
+    (m along the rest axis from the first control point; None when unbruised) and the middle of
+    each torn stretch of control points (m): one entry per perforation."""
+    damage = gut.damage(data)
+    spacing = gut.rest_length / max(1, len(damage) - 1)
+    worst = int(np.argmax(damage[:, 0]))
+    torn = np.flatnonzero(damage[:, 1] > 0.0)
+    stretches = np.split(torn, np.flatnonzero(np.diff(torn) > 1) + 1) if torn.size else []
+    return (float(damage[worst, 0]), worst * spacing if damage[worst, 0] > 0.0 else None,
+            [float(stretch.mean() * spacing) for stretch in stretches])
 
 
 def _grasp_events(holding: np.ndarray, closed: np.ndarray, height: np.ndarray) -> tuple[int, int, int]:
@@ -275,6 +295,11 @@ def score(trace: Trace) -> dict:
         "force_time_product_ns": float(max(products)) if products else 0.0,
         "force_time_product_limit_ns": FORCE_TIME_PRODUCT_LIMIT_NS,
         "traction_limit_n": TRACTION_LIMIT_N,
+        # the wall's own damage (plugin state): it only grows, so the last sample is the episode's
+        "damage_max": float(trace.damage_max[-1]) if trace.damage_max else 0.0,
+        "damage_where_m": trace.damage_where_m[-1] if trace.damage_where_m else None,
+        "perforations": len(trace.perforations_where_m[-1]) if trace.perforations_where_m else 0,
+        "perforations_where_m": list(trace.perforations_where_m[-1]) if trace.perforations_where_m else [],
     }
     costs = [step_cost_from(a["force"][k], a["pinch"][k]) for k in range(1, len(time))]
     camera = None  # a trace built by hand may leave the camera out
@@ -305,19 +330,11 @@ def closing_angle(gut) -> float:
 
 
 def pinches(physics) -> dict[str, float]:
-    """Each grasper's pinch now (N; the module doc's model), 0 for one not holding."""
-    model, data = physics.model.ptr, physics.data.ptr
+    """Each grasper's pinch now (N; the plugin's, Intestine.pinches), 0 for one not holding."""
+    data = physics.data.ptr
     gut = physics.intestine()
-    closed = closing_angle(gut)
-    out = {}
-    for grasp in gut.grasps(data):
-        tool = grasp.site.removesuffix("_tip")
-        out[tool] = 0.0
-        if grasp.holding:
-            actuator = model.actuator(f"{tool}_jaw")
-            lever = float(model.geom(f"{tool}_jaw").size[1])  # capsule half-length: the lever at the jaw's middle
-            out[tool] = float(actuator.gainprm[0]) * max(0.0, closed - float(data.ctrl[actuator.id])) / lever
-    return out
+    return {grasp.site.removesuffix("_tip"): (pinch or 0.0) if grasp.holding else 0.0
+            for grasp, (pinch, _) in zip(gut.grasps(data), gut.pinches(data))}
 
 
 def step_cost(physics) -> float:
@@ -362,4 +379,9 @@ def summary_lines(score: dict) -> list[str]:
                  f"mean while holding {'-' if mean is None else f'{mean:.1f} N'} (slip prevented at "
                  f"{SLIP_PREVENTING_PINCH_N:g} N), force-time product {t['force_time_product_ns']:.1f} N s "
                  f"(damage above {FORCE_TIME_PRODUCT_LIMIT_NS:g})")
+    where = t.get("damage_where_m")
+    torn = ", ".join(f"{100 * w:.0f} cm" for w in t.get("perforations_where_m", []))
+    lines.append(f"wall             bruise {t.get('damage_max', 0.0):.2f} of 1"
+                 + (f" at {100 * where:.0f} cm along the bowel" if where is not None else "")
+                 + f", perforations {t.get('perforations', 0)}" + (f" at {torn}" if torn else ""))
     return lines

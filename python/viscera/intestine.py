@@ -235,6 +235,43 @@ class Intestine:
             out.append(Grasp(site, statuses.get(int(status), "open"), float(s) * self.rest_length, int(slips)))
         return out
 
+    def damage(self, data: mujoco.MjData) -> np.ndarray:
+        """Per control point, its wall's damage (docs/model.md#damage): (n, 2), bruise in [0, 1] and
+        torn (0 or 1). A view into the state."""
+        return self._state(data)[self.layout["damage"]].reshape(-1, _block_widths()["damage"])
+
+    def pinches(self, data: mujoco.MjData) -> list[tuple[float | None, float]]:
+        """Each grasper's (pinch N, slip pull N) now, in grasp_sites order, as the plugin takes them:
+        the squeeze of the actuators on its jaw joint where the jaws meet the tissue (None when no
+        actuator drives the jaw), and the pull past which a hold slips at that pinch (config
+        `grasp_friction`, `grasp_slip_force`; docs/model.md#grasp)."""
+        out = np.zeros(2 * max(1, len(self.graspers)))
+        count = _library.native().viscera_grasp_pinches(ctypes.c_void_p(self.model._address),
+                                                         ctypes.c_void_p(data._address), self.instance,
+                                                         out.ctypes.data_as(ctypes.c_void_p), len(out) // 2)
+        if count < 0:
+            raise RuntimeError(f"viscera: intestine instance {self.instance} is not a viscera.intestine")
+        return [(None if out[2 * i] < 0 else float(out[2 * i]), float(out[2 * i + 1])) for i in range(count)]
+
+    def hold_pulls(self, data: mujoco.MjData) -> np.ndarray:
+        """Each grasper's hold pulling on the held point now (N, in grasp_sites order; 0 where it holds
+        nothing): the hold spring's stretch, from the held point where it sits in the site's frame
+        (the grasps block) to the axis point held, times `grasp_stiffness`. What the jaws' friction
+        must hold (docs/model.md#grasp); the damping's share is left out."""
+        state = self._state(data)[self.layout["grasps"]].reshape(-1, _block_widths()["grasps"])
+        stiffness = float(self.config.get("grasp_stiffness", attribute_docs()["grasp_stiffness"]["default"]))
+        pulls = np.zeros(len(self.graspers))
+        positions = np.ascontiguousarray(self.positions(data))
+        statuses = {name: code for code, name in _grasp_status_names().items()}
+        for i, site in enumerate(self.graspers):
+            if int(state[i][0]) != statuses["holding"]:
+                continue
+            site_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, site)
+            anchor = data.site_xpos[site_id] + data.site_xmat[site_id].reshape(3, 3) @ state[i][2:5]
+            held = spline_points(positions, np.array([state[i][1]]))[0]
+            pulls[i] = stiffness * float(np.linalg.norm(anchor - held))
+        return pulls
+
     def energy(self, data: mujoco.MjData) -> dict[str, float]:
         """Energies of the axis (J): 'elastic' (every spring, bending and tether term), 'gravity'
         (zero at the origin, under the model's gravity) and 'kinetic' (1/2 v^T M v, consistent mass).
@@ -311,6 +348,14 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
 
 
 FIXED_WIDTH = "{: .16e}"  # every double in 23 characters, exactly: values rewritten in place keep their width
+
+
+def damage_colours() -> tuple[np.ndarray, np.ndarray]:
+    """The rgb (in [0, 1]) the plugin's renderer draws a fully bruised wall and a torn one in
+    (docs/model.md#damage); the healthy colour blends towards the first as the bruise deepens."""
+    out = np.zeros(6)
+    _library.native().viscera_damage_colours(out.ctypes.data_as(ctypes.c_void_p))
+    return out[:3], out[3:]
 
 
 def fixed_width_numbers(values: Any) -> str:

@@ -19,7 +19,8 @@ the world body keeps the scene's lighting.
 
 Labels (`segmentation`): 0 nothing of the below (walls, background), 1 the intestine (the plugin's
 geoms), 2 a tool (any geom or site of a body under a trocar), 3 the target patch (site
-`target_area`). MuJoCo's segmentation ignores transparency: a translucent wall in front of the
+`target_area`), 4 damaged bowel wall (fully bruised or torn: the plugin marks the capsules it draws
+there, docs/model.md#damage). MuJoCo's segmentation ignores transparency: a translucent wall in front of the
 camera labels every pixel behind it as the wall, hence the laparoscope inside the cavity.
 
 Depth is the distance along the camera's axis (m), as MuJoCo's depth rendering gives, from the
@@ -44,7 +45,8 @@ import weakref
 import mujoco
 import numpy as np
 
-LABELS = {"nothing": 0, "intestine": 1, "tool": 2, "target": 3}
+LABELS = {"nothing": 0, "intestine": 1, "tool": 2, "target": 3, "damaged": 4}
+DRAWN_DAMAGED = 1          # the plugin's dataid on a capsule over damaged wall (plugin/mujoco/intestine.h)
 SLICES, STACKS = 8, 4      # capsule tessellation for observations (MuJoCo's default: 28 x 16)
 
 
@@ -334,8 +336,8 @@ class Camera:
             if geom.segid < 0:
                 continue
             kind = geom.objtype
-            if kind == mujoco.mjtObj.mjOBJ_PLUGIN:
-                labels[geom.segid + 1] = LABELS["intestine"]
+            if kind == mujoco.mjtObj.mjOBJ_PLUGIN:  # damaged: fully bruised or torn (docs/model.md#damage)
+                labels[geom.segid + 1] = LABELS["damaged" if geom.dataid == DRAWN_DAMAGED else "intestine"]
             elif kind == mujoco.mjtObj.mjOBJ_GEOM:
                 labels[geom.segid + 1] = self._geom_label[geom.objid]
             elif kind == mujoco.mjtObj.mjOBJ_SITE:

@@ -124,4 +124,8 @@ def overlay_lines(env) -> tuple[list[str], list[str]]:
             warnings.append(f"{tool}: {force:.1f} N on the tissue, over its {assess.TRACTION_LIMIT_N:g} N limit")
         if pinch.get(tool, 0.0) > assess.PERFORATION_PINCH_N:
             warnings.append(f"{tool}: pinch {pinch[tool]:.1f} N, over perforation ({assess.PERFORATION_PINCH_N:g} N)")
+    worst, _, torn = assess.damage_summary(physics.intestine(), data)
+    lines.append(f"{'bowel wall':14s} bruise {worst:.2f}" + (f"   PERFORATED ({len(torn)})" if torn else ""))
+    if torn:
+        warnings.append(f"the bowel is perforated ({len(torn)}): the episode has failed")
     return lines, warnings

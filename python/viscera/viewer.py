@@ -51,22 +51,39 @@ def intestine_rgba(gut: viscera.Intestine) -> tuple[float, ...]:
     return tuple(float(x) for x in given.split()) if given else (*INTESTINE_RGB, 1.0)
 
 
-def skin_colours(gut: viscera.Intestine, vertex_count: int) -> np.ndarray | None:
-    """Per-vertex colours (V, 3) of `gut`'s skin at its config's resolution: MARKED_RGB on the rings
-    within its `marked_band`, its own colour (intestine_rgba) elsewhere; None without a band. Rings
-    are uniform in the spline parameter ((n - 1) rings_per_segment + 1 of them), the two cap
-    centres last."""
+def skin_colours(gut: viscera.Intestine, vertex_count: int, damage: np.ndarray | None = None,
+                 rings_per_segment: int | None = None) -> np.ndarray | None:
+    """Per-vertex colours (V, 3) of `gut`'s skin at `rings_per_segment` (by default its config's):
+    MARKED_RGB on the rings within its `marked_band`, its own colour (intestine_rgba) elsewhere,
+    then the wall's `damage` (Intestine.damage: bruise, torn per control point) drawn as MuJoCo's
+    renderer draws it (viscera.damage_colours): darker towards a bruise's purple as it deepens,
+    dark red where torn. None with neither a band nor damage. Rings are uniform in the spline
+    parameter ((n - 1) rings_per_segment + 1 of them), the two cap centres last."""
     band = gut.config.get("marked_band")
-    if not band:
+    damaged = damage is not None and bool(np.any(damage))
+    if not band and not damaged:
         return None
-    rings_per_segment = int(gut.config.get("skin_rings_per_segment", viscera.attribute_docs()["skin_rings_per_segment"]["default"]))
+    if rings_per_segment is None:
+        rings_per_segment = int(gut.config.get("skin_rings_per_segment",
+                                                viscera.attribute_docs()["skin_rings_per_segment"]["default"]))
     rings = (gut.control_count - 1) * rings_per_segment + 1
     ring_points = (vertex_count - 2) // rings
-    start, end = (float(x) / gut.rest_length for x in band.split())
     fraction = np.arange(rings) / (rings - 1)
-    marked = np.repeat((fraction >= start) & (fraction <= end), ring_points)
+    ring_rgb = np.tile(np.array(intestine_rgba(gut)[:3]), (rings, 1))
+    if band:
+        start, end = (float(x) / gut.rest_length for x in band.split())
+        ring_rgb[(fraction >= start) & (fraction <= end)] = MARKED_RGB
+    if damaged:
+        bruise_rgb, torn_rgb = viscera.damage_colours()
+        x = fraction * (gut.control_count - 1)
+        j = np.minimum(np.floor(x).astype(int), gut.control_count - 2)
+        w = x - j
+        bruise = np.clip((1.0 - w) * damage[j, 0] + w * damage[j + 1, 0], 0.0, 1.0)[:, None]
+        torn = damage[np.where(w < 0.5, j, j + 1), 1] > 0.0
+        ring_rgb = (1.0 - bruise) * ring_rgb + bruise * bruise_rgb
+        ring_rgb[torn] = torn_rgb
     colours = np.tile(np.array(intestine_rgba(gut)[:3]), (vertex_count, 1))
-    colours[:len(marked)][marked] = MARKED_RGB
+    colours[:rings * ring_points] = np.repeat(ring_rgb, ring_points, axis=0)
     return colours
 
 
@@ -490,11 +507,11 @@ class MeshcatViewer:
         self._placed = True
         for gut in self.intestines:
             vertices, _, triangles = viscera.skin(self.model, data, gut.instance)
-            colours = skin_colours(gut, len(vertices))
+            colours = skin_colours(gut, len(vertices), gut.damage(data))
             if colours is None:
                 self.vis["intestines"][gut.name].set_object(g.TriangularMeshGeometry(vertices, triangles),
                                                            self._skin_materials[gut.name])
-            else:  # a marked band: vertex colours
+            else:  # a marked band or damage: vertex colours
                 self.vis["intestines"][gut.name].set_object(
                     g.TriangularMeshGeometry(vertices, triangles, color=colours),
                     g.MeshLambertMaterial(color=0xFFFFFF, vertexColors=True))
@@ -505,7 +522,10 @@ class MeshcatViewer:
     def record(self, data: mujoco.MjData) -> None:
         """Keep the state of `data` as the next frame of the recording (a coarser skin)."""
         rings, points = self.record_resolution
-        skins = {gut.name: viscera.skin(self.model, data, gut.instance, rings, points)[::2] for gut in self.intestines}
+        skins = {}
+        for gut in self.intestines:
+            vertices, _, triangles = viscera.skin(self.model, data, gut.instance, rings, points)
+            skins[gut.name] = (vertices, triangles, skin_colours(gut, len(vertices), gut.damage(data).copy(), rings))
         # the first frame places the parts that never move too (the page may never have had an update)
         poses = {part: part_transform(data, part) for part in (self._moving if self.frames else self.parts)}
         self.frames.append((skins, poses))
@@ -539,10 +559,14 @@ class MeshcatViewer:
             if k + 1 < count:
                 shown[k + 1] = False
             keys = [(time_in_frames, home if on else away) for time_in_frames, on in sorted(shown.items())]
-            for name, (vertices, triangles) in skins.items():
+            for name, (vertices, triangles, colours) in skins.items():
                 node = vis["recording"][name][str(k)]
                 # a material object per frame: meshcat's page loads objects sharing one badly
-                node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material(self._rgba[name]))
+                if colours is None:
+                    node.set_object(g.TriangularMeshGeometry(vertices, triangles), _material(self._rgba[name]))
+                else:
+                    node.set_object(g.TriangularMeshGeometry(vertices, triangles, color=colours),
+                                    g.MeshLambertMaterial(color=0xFFFFFF, vertexColors=True))
                 node.set_transform(home if k == 0 else away)
                 for time_in_frames, transform in keys:
                     with animation.at_frame(vis, time_in_frames) as frame:

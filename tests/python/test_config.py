@@ -125,8 +125,8 @@ def test_good_config_compiles_with_documented_defaults():
     assert gut.rest_length == 4.0 and gut.radius == 0.0125
     assert gut.sphere_count == 321  # 4 m / 12.5 mm + 1: spaced one radius apart
     # positions, velocities, divergence and recovery counts, a wrench per body, friction state per
-    # sphere, a rest record per control point, the gravity they were counted under
-    assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321 + 8 * 250 + 3
+    # sphere, a rest record per control point, the gravity they were counted under, the wall's damage
+    assert model.plugin_statenum[0] == 6 * 250 + 2 + 6 * model.nbody + 8 * 321 + 8 * 250 + 3 + 2 * 250
 
 
 def test_a_million_control_points_load():

@@ -156,15 +156,16 @@ def test_diverging_state_is_restored_flagged_and_finite(capfd, caplog):
 def test_the_state_layout_comes_from_the_plugin_and_tiles_its_state():
     """Python reads plugin_state's blocks from C (state_layout.h): in order, back to back, their
     sizes what the config implies (3n, 3n, 1, 1, 6 per body, 8 per sphere, 6 per grasper, 8 per
-    control point, 3), and together exactly the instance's plugin_statenum."""
+    control point, 3, 2 per control point), and together exactly the instance's plugin_statenum."""
     body = ('<body name="g" pos="0 0 1"><joint name="jaw" type="hinge"/><site name="tip"/>'
             '<geom type="sphere" size="0.01" contype="0" conaffinity="0"/></body>')
     model, data, gut = compile_scene(body, length=1.0, control_points=30, grasp_sites="tip", grasp_joints="jaw")
     layout = gut.layout
     assert list(layout) == ["positions", "velocities", "divergences", "recoveries", "wrenches", "friction", "grasps",
-                            "rest", "gravity"]
+                            "rest", "gravity", "damage"]
     sizes = {"positions": 3 * 30, "velocities": 3 * 30, "divergences": 1, "recoveries": 1,
-             "wrenches": 6 * model.nbody, "friction": 8 * gut.sphere_count, "grasps": 6 * 1, "rest": 8 * 30, "gravity": 3}
+             "wrenches": 6 * model.nbody, "friction": 8 * gut.sphere_count, "grasps": 6 * 1, "rest": 8 * 30, "gravity": 3,
+             "damage": 2 * 30}
     at = 0
     for name, block in layout.items():
         assert block.start == at and block.stop - block.start == sizes[name], name

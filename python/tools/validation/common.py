@@ -57,12 +57,12 @@ def peak_frequency(signal: np.ndarray, step: float, low: float, high: float) -> 
 LAST_COMPILED: dict = {}
 
 
-def compile_rod(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = ""):
+def compile_rod(config: dict, timestep: float, gravity=(0.0, 0.0, -G), worldbody: str = "", after: str = ""):
     """The model, a data and the intestine of one rod; a key whose value is None is left out (the
-    plugin's default, or the `tolerance`'s choice)."""
+    plugin's default, or the `tolerance`'s choice). `after`: MJCF after the worldbody (actuators)."""
     config = {key: value for key, value in config.items() if value is not None}
     xml = (f'<mujoco><option timestep="{timestep}" gravity="{gravity[0]} {gravity[1]} {gravity[2]}"/>'
-           f'{viscera.extension_xml("rod", **config)}<worldbody>{worldbody}</worldbody></mujoco>')
+           f'{viscera.extension_xml("rod", **config)}<worldbody>{worldbody}</worldbody>{after}</mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
     gut = viscera.intestine(model)
     LAST_COMPILED["intestine"] = gut

@@ -26,7 +26,8 @@ and `build`, the one factory, makes any task's environment (viscera.tasks.load).
 - optionally its own keyword options (its __init__'s besides BowelTask's: clear_area's
   end_on_success), POLICY, `draw(physics)`, drawing the task's own episode details after the
   bowel has settled (by default the target is placed, when the task has one), and
-  `failure(physics)`, which ends an episode early (discount 0).
+  `failure(physics)`, which ends an episode early (discount 0); a perforated bowel ends any
+  task's episode as a failure.
 
 One step's measurements: what the condition, the reward and the observation read of the bowel
 over the target (the dense axis, the target's coverage) is `task.measurements(physics)`, a
@@ -223,6 +224,10 @@ class Physics(dm_mujoco.Physics):
     def holding(self) -> np.ndarray:
         """1 where a grasper holds the intestine (one entry per grasper)."""
         return np.array([float(g.holding) for g in self.intestine().grasps(self.data.ptr)])
+
+    def perforated(self) -> bool:
+        """The bowel's wall is through somewhere: perforated by a pinch or torn (docs/model.md#damage)."""
+        return bool(np.any(self.intestine().damage(self.data.ptr)[:, 1] > 0.0))
 
     def held_abscissae(self) -> np.ndarray:
         """Per grasper, the held point's abscissa (m along the rest axis), or -1 when not holding."""
@@ -697,7 +702,8 @@ class BowelTask(base.Task):
                 self._held_since = float(physics.data.time)
         else:
             self._held_since = None
-        self._failed = self._failed or self.failure(physics)
+        # a perforated bowel ends any task's episode as a failure (docs/model.md#damage)
+        self._failed = self._failed or self.failure(physics) or physics.perforated()
         self._reward = self._step_reward(physics)
 
     def _step_reward(self, physics: Physics) -> float | None:

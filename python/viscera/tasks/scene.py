@@ -34,6 +34,7 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
+from viscera import tissue
 from viscera.intestine import default_stiffnesses, fixed_width_numbers
 
 HERE = pathlib.Path(__file__).resolve()
@@ -87,14 +88,14 @@ TOOL_KINDS = ("grasper", "retractor")  # the abdomen's tools, by name, each the 
 TROCARS = {"right": (0.07, -0.06, 0.15), "left": (-0.07, -0.06, 0.15)}  # m, on the anterior wall
 G = 9.81  # m/s^2
 
-# Tissue ranges, drawn uniformly (docs/tasks.md gives their sources)
-MASS_PER_LENGTH = (0.30, 0.60)       # kg/m
-STIFFNESS_SCALE = (0.7, 1.5)         # x the default stretch and bend springs (one factor for both)
-FRICTION = (0.2, 0.4)                # Coulomb, against walls and tools
-SELF_FRICTION = (0.2, 0.4)           # Coulomb, bowel on bowel
-MESENTERY_STIFFNESS = (10.0, 40.0)   # N/m per tether
-MESENTERY_LENGTH = (0.15, 0.21)      # m, the mesentery's depth
-TILT_DEG = (0.0, 15.0)               # the table's tilt from level
+# Tissue ranges, drawn uniformly: from the table of tissue parameters and their sources (viscera.tissue)
+MASS_PER_LENGTH = tissue.drawn("mass_per_length")             # kg/m
+STIFFNESS_SCALE = tissue.drawn("springs")                     # x the default stretch and bend springs (one factor)
+FRICTION = tissue.drawn("friction_tools_walls")               # Coulomb, against walls and tools
+SELF_FRICTION = tissue.drawn("friction_bowel_on_bowel")       # Coulomb, bowel on bowel
+MESENTERY_STIFFNESS = tissue.drawn("mesentery_stiffness")     # N/m per tether
+MESENTERY_LENGTH = tissue.drawn("mesentery_depth")            # m, the mesentery's depth
+TILT_DEG = (0.0, 15.0)               # the table's tilt from level (not tissue: the operating table's)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -42,6 +42,9 @@ def overlay(session: Session) -> list[tuple]:
         names.append(f"{tool.name} force")
         values.append(f"{force:5.2f} N" + (f"  holding, pinch {snapshot.pinch.get(tool.name, 0.0):.1f} N"
                                            if snapshot.holding[tool.name] else ""))
+    worst, _, torn = assess.damage_summary(session.physics.intestine(), session.data)
+    names.append("bowel wall")
+    values.append(f"bruise {worst:.2f} of 1" + (f", PERFORATED ({len(torn)})" if torn else ""))
     names += ["time", "behind real time"]
     values += [f"{session.data.time:5.1f} / {session.time_limit_s:.0f} s",
                f"{session.ticks_behind} tick{'s' * (session.ticks_behind != 1)}, {session.lost_s:.2f} s lost"]

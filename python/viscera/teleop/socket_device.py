@@ -67,7 +67,7 @@ import numpy as np
 
 from viscera.teleop import protocol
 from viscera.teleop.devices import Device, DeviceError, Snapshot, ToolInfo
-from viscera.teleop.haptic_client import realtime_thread
+from viscera.teleop.haptic_client import REALTIME_PRIORITY, collector_paused, realtime_thread
 from viscera.trajectory import COORDINATES, TO_SI, UNITS
 
 CONTROL_PERIOD_S = 0.01   # T until the session's snapshots show theirs
@@ -317,7 +317,7 @@ class SocketDevice(Device):
 
     def __init__(self, host: str = "127.0.0.1", port: int = protocol.PORT, allow_remote: bool = False,
                  control_period_s: float = CONTROL_PERIOD_S, silence_s: float = SILENCE_S, realtime: bool = True,
-                 flood_per_ms: int = FLOOD_PER_MS, process: bool = True):
+                 flood_per_ms: int = FLOOD_PER_MS, process: bool = True, cpu: int | None = None):
         super().__init__()
         if not allow_remote and not loopback(host):
             raise DeviceError(f"--device socket listens on loopback only, and {host!r} is not loopback "
@@ -327,6 +327,12 @@ class SocketDevice(Device):
         self.silence_s = float(silence_s)
         self.flood_per_ms = int(flood_per_ms)
         self.realtime = realtime
+        cores = os.cpu_count() or 1
+        if cpu is not None and not (hasattr(os, "sched_setaffinity") and 0 <= int(cpu) < cores):
+            raise DeviceError(f"--device socket: its server cannot run on core {cpu}: "
+                              f"this machine has cores 0 to {cores - 1}" if hasattr(os, "sched_setaffinity")
+                              else f"--device socket: cpu={cpu}: this system cannot pin a process to a core")
+        self.cpu = None if cpu is None else int(cpu)
         self.process = process and os.name == "posix"  # the memory map is passed as an inherited descriptor
         self.socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -366,7 +372,7 @@ class SocketDevice(Device):
         def values(array_):
             return [float(f"{float(v):.6g}") for v in array_]
         config = {"silence_s": self.silence_s, "flood_per_ms": self.flood_per_ms, "realtime": self.realtime,
-                  "parent": os.getpid(),
+                  "cpu": self.cpu, "parent": os.getpid(),
                   "tools": [{"index": t.index, "name": t.name, "kp": values(t.kp), "lower": values(t.lower),
                              "upper": values(t.upper), "initial": values(t.initial)} for t in tools]}
         self._words[STOP] = self._words[READY] = 0.0
@@ -488,8 +494,19 @@ class SocketDevice(Device):
             server.join(timeout=2.0)
 
 
+def _scheduling(config: dict) -> str:
+    """The server's thread made real-time (haptic_client.realtime_thread) and put on its core.
+    Pinned, it runs one priority above a client's loop (REALTIME_PRIORITY) that may share the
+    core: a POSE from that client then preempts it at once, on the same core, with no wake-up of
+    an idle core to wait for."""
+    if not config["realtime"]:
+        return "default"
+    pinned = config.get("cpu") is not None
+    return realtime_thread(REALTIME_PRIORITY + 1 if pinned else REALTIME_PRIORITY, cpu=config.get("cpu"))
+
+
 def _serve_thread(server: Server, config: dict, words) -> None:
-    server.scheduled(realtime_thread() if config["realtime"] else "default")
+    server.scheduled(_scheduling(config))
     server.serve(lambda: words[STOP] != 0.0)
 
 
@@ -501,10 +518,11 @@ def main(argv: list[str]) -> int:
     memory = mmap.mmap(int(argv[1]), MEMORY_BYTES)
     config = json.loads(argv[2])
     server = Server(sock, memory, config)
-    server.scheduled(realtime_thread() if config["realtime"] else "default")
+    server.scheduled(_scheduling(config))
     parent = config["parent"]
     words = server.words
-    server.serve(lambda: words[STOP] != 0.0 or os.getppid() != parent)  # a parent gone: nothing to serve
+    with collector_paused():  # the process serves and does nothing else
+        server.serve(lambda: words[STOP] != 0.0 or os.getppid() != parent)  # a parent gone: nothing to serve
     return 0
 
 

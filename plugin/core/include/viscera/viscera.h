@@ -18,6 +18,7 @@
 //   vsc_contact.h    penalty contacts: the model, its constants, its energy
 //   vsc_friction.h   the friction state
 //   vsc_grasp.h      held points (grasping jaws)
+//   vsc_damage.h     tissue damage: bruising, perforation and tears
 //   vsc_jacobian.h   band force Jacobians (the implicit step)
 //   vsc_integrate.h  the integrators' table and the step with its divergence retries
 //   vsc_stability.h  frequencies and the substeps a timestep needs
@@ -29,6 +30,7 @@
 #include "viscera/vsc_base.h"
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_contact.h"
+#include "viscera/vsc_damage.h"
 #include "viscera/vsc_elastic.h"
 #include "viscera/vsc_energy.h"
 #include "viscera/vsc_forces.h"
