@@ -14,7 +14,8 @@ python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.js
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json and
 docs/tasks/rates_anatomical.json likewise),
-docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/contacts.json
+docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/handling.json
+(python python/tools/validation/organ/handling.py), docs/validation/contacts.json
 (python python/tools/validation/contacts/study.py), docs/validation/tolerance.json
 (python python/tools/tolerance_study.py), docs/rehearsal/band.json (python
 python/tools/reference_band.py), docs/learning/*.json (python/tools/learning: dataset_speed.py,
@@ -393,6 +394,26 @@ def config_keys() -> str:
     return _rows(["key", "values", "unit", "default", "meaning"], rows)
 
 
+def organ_handling() -> str:
+    """Running the bowel against Barrie 2016 (python python/tools/validation/organ/handling.py)."""
+    run = _json("validation/handling.json")["running"]
+    ours, theirs = run["viscera"], run["barrie_2016"]
+    low, high = run["jaw_force_from_handle_n"]
+    rows = [
+        ["peak grasp force, per grasp", f"{ours['f_max_n']['mean']:.1f} ± {ours['f_max_n']['sd']:.1f} N (at the jaws)",
+         f"{theirs['f_max_n']['mean']:.1f} ± {theirs['f_max_n']['sd']:.1f} N at the handle: {low:.1f} to {high:.1f} N "
+         "at the jaws for a 30 to 90 % efficient forceps"],
+        ["rms grasp force, per grasp", f"{ours['f_rms_n']['mean']:.1f} ± {ours['f_rms_n']['sd']:.1f} N (at the jaws)",
+         f"{theirs['f_rms_n']['mean']:.1f} ± {theirs['f_rms_n']['sd']:.1f} N at the handle"],
+        ["jaws closing", f"{ours['close_s']['mean']:.2f} ± {ours['close_s']['sd']:.2f} s",
+         f"{theirs['close_s']['mean']:.2f} ± {theirs['close_s']['sd']:.2f} s"],
+        ["hold", f"{ours['hold_s']['mean']:.2f} ± {ours['hold_s']['sd']:.2f} s",
+         f"{theirs['hold_s']['mean']:.2f} ± {theirs['hold_s']['sd']:.2f} s"],
+    ]
+    return _rows([f"running the bowel ({run['holds']} grasps)", "viscera, scripted", "live pig (Barrie et al. 2016)"],
+                 rows)
+
+
 def tissue_parameters() -> str:
     """From the table of tissue parameters (viscera.tissue), through the installed package."""
     from viscera import tissue
@@ -484,11 +505,13 @@ def bc_reevaluations() -> str:
     for task in sorted(record["results"]):
         for kind in ("state", "pixels"):
             r = record["results"][task].get(kind)
-            for change in (r or {}).get("reevaluations", []):
-                before = change["before"]
+            changes = (r or {}).get("reevaluations", [])
+            for k, change in enumerate(changes):
+                # after a change: what the next change found before it, or the entry's results for the last
+                before, after = change["before"], changes[k + 1]["before"] if k + 1 < len(changes) else r
                 rows.append([task, kind, change["why"], change["date"], _percent(before["success_rate"]),
-                             f"**{_percent(r['success_rate'])}**",
-                             f"{len(set(before['succeeded_seeds']) & set(r['succeeded_seeds']))} of "
+                             f"**{_percent(after['success_rate'])}**",
+                             f"{len(set(before['succeeded_seeds']) & set(after['succeeded_seeds']))} of "
                              f"{len(before['succeeded_seeds'])}"])
     first, last = record["eval_seeds"]
     return _rows(["task", "observations", "the change", "re-evaluated", f"success before, seeds {first}-{last}",

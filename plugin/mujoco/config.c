@@ -151,6 +151,17 @@ static int read_key(reader* r, vsc_plugin_config* c, int index) {
       if (k > key->maximum) return fail(r, "attribute '%s' = '%s' must be at most %ld", key->name, text, (long)key->maximum);
       *(int*)field = (int)k;
       return 0;
+    case VSC_KEY_KIND_TAPER: {  // one positive number, or two: at the start and at the end (0: not tapered)
+      double pair[2] = {0.0, 0.0};
+      int count = parse_numbers(text, pair, 2);
+      if (count != 1 && count != 2)
+        return fail(r, "attribute '%s' = '%s' must be one positive number, or two (at the start and at the end) (%s)",
+                    key->name, text, key->unit);
+      if (!(pair[0] > 0.0) || (count == 2 && !(pair[1] > 0.0)))
+        return fail(r, "attribute '%s' = '%s' must be positive (%s)", key->name, text, key->unit);
+      memcpy(field, pair, sizeof(pair));
+      return 0;
+    }
     case VSC_KEY_KIND_VECTOR: {
       double buffer[8];
       int count = (int)key->maximum;
@@ -236,7 +247,7 @@ static int read_shape(reader* r, vsc_plugin_config* c) {
     if (!c->given[VSC_KEY_box]) return fail(r, "attribute 'box' is required by 'shape' = 'serpentine' (6 numbers, m)");
     for (int i = 0; i < 3; ++i)
       if (!(c->box[3 + i] > c->box[i])) return fail(r, "attribute 'box' = '%s' must give min then max corners", raw(r, "box"));
-    double capacity = vsc_layout_serpentine_capacity(c->rod.radius, c->box);
+    double capacity = vsc_layout_serpentine_capacity(vsc_rod_def_radius_max(&c->rod), c->box);
     if (capacity < c->rod.length * (1.0 - 1e-9))
       return fail(r, "attribute 'box' = '%s' cannot hold a serpentine of length %g m and radius %g m "
                   "(it holds %g m)", raw(r, "box"), c->rod.length, c->rod.radius, capacity);
@@ -301,7 +312,7 @@ static int read_graspers(reader* r, vsc_plugin_config* c) {
       return fail(r, "attribute 'grasp_joints' = '%s': joint '%s' must be a hinge or a slide (the jaw opening)",
                   raw(r, "grasp_joints"), mj_id2name(r->m, mjOBJ_JOINT, g->joint[i]));
   }
-  if (!c->given[VSC_KEY_grasp_reach]) g->reach = 2.0 * c->rod.radius;
+  if (!c->given[VSC_KEY_grasp_reach]) g->reach = 2.0 * vsc_rod_def_radius_max(&c->rod);
   if (!c->given[VSC_KEY_grasp_lever]) g->lever = 0.0;  // derived each step (grasps.c)
   int hinges = 0;
   for (int i = 0; i < joints; ++i) hinges += r->m->jnt_type[g->joint[i]] == mjJNT_HINGE;
@@ -351,7 +362,7 @@ static int apply_tolerance(reader* r, vsc_plugin_config* c) {
   const char* text = raw(r, "tolerance");
   if (!(c->tolerance < 1.0)) return fail(r, "attribute 'tolerance' = '%s' must be below 1 (a relative error)", text);
   vsc_resolution_request request = {
-      .tolerance = c->tolerance, .length = d->length, .radius = d->radius, .mass_per_length = d->mass / d->length,
+      .tolerance = c->tolerance, .length = d->length, .radius = vsc_rod_def_radius_min(d), .mass_per_length = d->mass / d->length,
       .bending_rigidity = d->bending_rigidity,
       // the whole-length axial stiffness EA (N): springs, the bend springs' share and the global term
       .axial_stiffness = (d->stretch_stiffness + 4.0 * d->bend_stiffness + d->global_stretch_stiffness) * d->length,
@@ -427,12 +438,21 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   // mass: given, or from the density of a full tube of the contact radius
   if (given[VSC_KEY_mass] && given[VSC_KEY_density]) return fail(r, "attributes 'mass' and 'density' are both given: give one");
   if (!given[VSC_KEY_mass]) {
-    d->mass = c->density * VSC_PI * d->radius * d->radius * d->length;
+    double r0 = d->radius, r1 = vsc_rod_def_radius_at(d, 1.0);
+    if (r1 == r0)
+      d->mass = c->density * VSC_PI * d->radius * d->radius * d->length;
+    else  // tapered: the mean of radius^2 over the length, the radius linear in it
+      d->mass = c->density * VSC_PI * ((r0 * r0 + r0 * r1 + r1 * r1) / 3.0) * d->length;
     if (!isfinite(d->mass))
       return fail(r, "attribute 'density' = '%g' with 'radius' = '%g' and 'length' = '%g' gives a non-finite mass",
                   c->density, d->radius, d->length);
   }
   if (!given[VSC_KEY_radius_max]) c->skin.radius_max = d->radius;
+  c->skin.taper_end = vsc_rod_def_radius_at(d, 1.0) / d->radius;  // the skin's radii scale with the tube's
+  if (given[VSC_KEY_young_modulus] && vsc_rod_def_radius_at(d, 1.0) != d->radius)
+    return fail(r, "attribute 'radius' = '%s' tapers the tube, and 'young_modulus' is given: a section that varies "
+                "along the tube is not supported; give 'stretch_stiffness' and 'bend_stiffness' instead",
+                raw(r, "radius"));
   if (!given[VSC_KEY_radius_min]) c->skin.radius_min = c->skin.radius_max;
   if (c->skin.radius_min > c->skin.radius_max)
     return fail(r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->skin.radius_min, c->skin.radius_max);
@@ -472,10 +492,11 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
                 "'mass_matrix' = '%s' with 'integrator' = '%s'", d->lumped_mass ? "lumped" : "consistent",
                 vsc_integrator_names[c->step.integrator]);
   if (!given[VSC_KEY_collision_spheres] && !given[VSC_KEY_tolerance]) {
-    d->collision_sphere_count = vsc_default_collision_sphere_count(d->length, d->radius);
+    // spaced at most the smallest radius apart (a tapered tube's thin end)
+    d->collision_sphere_count = vsc_default_collision_sphere_count(d->length, vsc_rod_def_radius_min(d));
     if (d->collision_sphere_count < 2)  // the default overflowed
       return fail(r, "attributes 'length' = '%g' and 'radius' = '%g' need more than %d collision spheres: "
-                  "give 'collision_spheres'", d->length, d->radius, VSC_MAX_COLLISION_SPHERES);
+                  "give 'collision_spheres'", d->length, vsc_rod_def_radius_min(d), VSC_MAX_COLLISION_SPHERES);
   }
   if (d->mesentery_stiffness > 0.0 && !given[VSC_KEY_mesentery_root])
     return fail(r, "attribute 'mesentery_root' is required by 'mesentery_stiffness' > 0 (6 numbers, m)");
@@ -528,7 +549,7 @@ int vsc_plugin_config_read(const mjModel* m, int instance, vsc_plugin_config* c,
 int vsc_plugin_key_field(int i, const char* field, char* out, int size) {
   if (i < 0 || i >= VSC_KEY_COUNT || !field || !out || size < 1) return -1;
   const vsc_plugin_key* key = &vsc_plugin_keys[i];
-  static const char* const kinds[] = {"real", "positive", "nonnegative", "count", "vector", "choice", "custom"};
+  static const char* const kinds[] = {"real", "positive", "nonnegative", "count", "vector", "choice", "custom", "taper"};
   const char* const* names = vsc_plugin_allowed_values(key->name);
   char text[320] = "";
   if (strcmp(field, "unit") == 0) return snprintf(out, (size_t)size, "%s", key->unit);
@@ -548,6 +569,7 @@ int vsc_plugin_key_field(int i, const char* field, char* out, int size) {
       case VSC_KEY_KIND_VECTOR: snprintf(text, sizeof(text), "%d numbers", (int)key->maximum); break;
       case VSC_KEY_KIND_CHOICE: list_names(names, "`", text, sizeof(text)); break;
       case VSC_KEY_KIND_CUSTOM: snprintf(text, sizeof(text), "a list"); break;
+      case VSC_KEY_KIND_TAPER: snprintf(text, sizeof(text), "> 0, or two > 0"); break;
     }
     return snprintf(out, (size_t)size, "%s", text);
   }
@@ -605,7 +627,7 @@ int vsc_plugin_config_layout(const vsc_plugin_config* c, double* q, char* error,
       what = "polyline 'points' (shorter than 'length'?)";
       break;
     case VSC_SHAPE_SERPENTINE:
-      status = vsc_layout_serpentine(n, c->rod.length, c->rod.radius, c->box, q);
+      status = vsc_layout_serpentine(n, c->rod.length, vsc_rod_def_radius_max(&c->rod), c->box, q);
       what = "serpentine 'box'";
       break;
     case VSC_SHAPE_CONTROL_POINTS:

@@ -30,7 +30,8 @@ typedef enum vsc_key_kind {
   VSC_KEY_KIND_COUNT,
   VSC_KEY_KIND_VECTOR,
   VSC_KEY_KIND_CHOICE,
-  VSC_KEY_KIND_CUSTOM
+  VSC_KEY_KIND_CUSTOM,
+  VSC_KEY_KIND_TAPER
 } vsc_key_kind;
 
 /// One row of the table of keys (keys.h; static storage).

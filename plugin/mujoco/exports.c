@@ -120,8 +120,9 @@ static int read_intestine(const mjModel* m, int instance, vsc_plugin_config* con
 /// Resolved mechanics of intestine `instance` of model `m`, defaults applied,
 /// as the plugin itself reads them: out = {length (m), radius (m), mass (kg),
 /// control points, collision spheres, samples per segment, sleep (1 on, 0 off),
-/// sleep_time (s)}. Returns 0, or -1 if the instance is not a viscera.intestine.
-VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out[8]) {
+/// sleep_time (s), radius at the end (m; the same as at the start unless it
+/// tapers)}. Returns 0, or -1 if the instance is not a viscera.intestine.
+VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out[9]) {
   vsc_plugin_config config;
   if (read_intestine(m, instance, &config)) return -1;
   out[0] = config.rod.length;
@@ -132,6 +133,7 @@ VSC_EXPORT int viscera_intestine_info(const mjModel* m, int instance, double out
   out[5] = config.rod.samples_per_segment;
   out[6] = config.step.sleep.enabled;
   out[7] = config.step.sleep.rest_time;
+  out[8] = vsc_rod_def_radius_at(&config.rod, 1.0);
   vsc_plugin_config_free(&config);
   return 0;
 }

@@ -366,7 +366,7 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
   if (world->geom_count <= 0) return;
   vsc_deepest_contact deepest;
   vsc_rod_contact_energy(it->rod, world, q, &deepest);
-  if (!(deepest.depth > VSC_DEEP_CONTACT * it->config.rod.radius) || deepest.geom < 0) return;
+  if (deepest.geom < 0 || !(deepest.depth > VSC_DEEP_CONTACT * vsc_rod_sphere_radii(it->rod)[deepest.sphere])) return;
   int g = it->world.ids[deepest.geom];
   const char* name = mj_id2name(m, mjOBJ_GEOM, g);
   char unnamed[32];
@@ -473,8 +473,8 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
     vsc_rod_update_spheres(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
                            s + other->layout.offset[VSC_STATE_VELOCITIES]);
     double friction = fmax(it->config.rod.self_friction, other->config.rod.self_friction);  // as a geom pair's
-    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, other->config.rod.radius, friction,
-                         0.5 * m->opt.timestep, it->all_geoms + g);
+    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, friction, 0.5 * m->opt.timestep,
+                         it->all_geoms + g);
     g += other->config.rod.collision_sphere_count - 1;
   }
   return g;
@@ -522,7 +522,8 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
 
 // Scatter: the step's average reaction per body, as force and torque about its
 // centre of mass, into the wrenches block; the holds' reactions to the jaws
-// (a hold pulled past slip_force slips); the reactions on the partners' capsules
+// (a hold slides past the jaws' friction, tears out past slip_force: grasps.h); the
+// wall's damage from the holds' pinches and overstretching; the reactions on the partners' capsules
 // handed to them as loads.
 static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world* world, mjtNum* state) {
   const vsc_state_layout l = it->layout;
@@ -646,7 +647,7 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   for (int a = 0; a < count; ++a) {
     double s = ((double)a + 0.5) / (double)count;  // the capsule's middle (fraction of the rest length)
     double x = s * (double)(n - 1), u = x - floor(x);
-    double radius = vsc_skin_radius(r_min, r_max, u);
+    double radius = vsc_skin_radius(r_min, r_max, u) * (1.0 + s * (c->skin.taper_end - 1.0));  // tapered: scaled
     if (scn->ngeom >= scn->maxgeom) return;  // scene full: draw what fits
     if (c->given[VSC_KEY_draw_capsules]) {   // the spline itself at even abscissae
       vsc_basis at_from = vsc_spline_basis(n, (double)a / (double)count);

@@ -3,7 +3,8 @@
 // - kind: how the value is read and bounded (config.c reads every row the same
 //   way): VSC_KEY_KIND_REAL (a finite number in [minimum, maximum]), VSC_KEY_KIND_POSITIVE (> 0),
 //   VSC_KEY_KIND_NONNEGATIVE (>= 0), VSC_KEY_KIND_COUNT (an integer in [minimum, maximum]),
-//   VSC_KEY_KIND_VECTOR (exactly `maximum` finite numbers), VSC_KEY_KIND_CHOICE (a name from the
+//   VSC_KEY_KIND_VECTOR (exactly `maximum` finite numbers), VSC_KEY_KIND_TAPER (one positive number, or
+//   two: at the start and the end, into two adjacent fields), VSC_KEY_KIND_CHOICE (a name from the
 //   key's list in config.c, tied to its enum), VSC_KEY_KIND_CUSTOM (read by its own code:
 //   indices, names, point lists).
 // - field: where the value goes in vsc_plugin_config (FIELD(member) or NO_FIELD).
@@ -31,8 +32,10 @@
     "total mass; give `mass` or `density`, not both") \
   X(density, VSC_KEY_KIND_POSITIVE, FIELD(density), 0, 0, "kg/m^3", VALUE("1000"), \
     "used when `mass` is absent") \
-  X(radius, VSC_KEY_KIND_POSITIVE, FIELD(rod.radius), 0, 0, "m", CORE, \
-    "tube radius: the collision spheres' radius") \
+  X(radius, VSC_KEY_KIND_TAPER, FIELD(rod.radius), 0, 0, "m", CORE, \
+    "tube radius: the collision spheres' radius. Two values taper the tube: the radius at the start and at " \
+    "the end, linear in the rest length between; the spheres, contacts, skin, drawing and mass (as radius^2) " \
+    "follow the local radius (see [taper](model.md#taper))") \
   X(radius_min, VSC_KEY_KIND_POSITIVE, FIELD(skin.radius_min), 0, 0, "m", DERIVED("`radius_max`"), \
     "skin radius between control points (<= `radius_max`)") \
   X(radius_max, VSC_KEY_KIND_POSITIVE, FIELD(skin.radius_max), 0, 0, "m", DERIVED("`radius`"), \

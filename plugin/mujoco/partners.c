@@ -23,10 +23,11 @@ static void frame_along(const double z[3], double rotation[9]) {
   }
 }
 
-void vsc_partner_capsules(const vsc_rod* rod, int spheres, double radius, double friction, double ahead,
-                          vsc_geom* out) {
+void vsc_partner_capsules(const vsc_rod* rod, int spheres, double friction, double ahead, vsc_geom* out) {
   const double *x = vsc_rod_sphere_centres(rod), *v = vsc_rod_sphere_velocities(rod);
+  const double* radii = vsc_rod_sphere_radii(rod);
   for (int k = 0; k + 1 < spheres; ++k) {
+    double radius = 0.5 * (radii[k] + radii[k + 1]);  // a tapered tube's: its mean over the capsule
     const double *va = v + 3 * k, *vb = v + 3 * k + 3;
     double a[3], b[3];
     for (int c = 0; c < 3; ++c) {

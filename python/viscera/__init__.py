@@ -18,7 +18,7 @@ from viscera.intestine import (  # noqa: E402
     PLUGIN_NAME, Intestine, add_to_mjcf, allowed_values, attribute_docs, attribute_names, config_strings,
     damage_colours, extension_xml, fixed_width_numbers, intestine, intestines, reconfigure, skin, spline_points)
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 PLUGIN_LIBRARY = _library.load()
 _gymnasium_ids.install()

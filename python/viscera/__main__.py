@@ -508,6 +508,9 @@ def build_parser() -> argparse.ArgumentParser:
     teleop_parser.add_argument("--record", type=cli.output_file(".npz"),
                                help="save the session to this file, for replay")
     teleop_parser.add_argument("--port", type=cli.port, help="the socket device's UDP port on loopback (default 47000)")
+    teleop_parser.add_argument("--haptic-cpu", type=int, metavar="CORE",
+                               help="the socket device's server on this core only (0 is the first), at real-time "
+                               "priority where allowed: put the haptic driver on the same core and nothing else")
     teleop_parser.add_argument("--camera", choices=("steer", "follow", "fixed"), default="steer",
                                help="steer: the laparoscope is the device's last tool (pitch, yaw, depth, roll), the "
                                "default; follow: an assistant keeps the active tool centred; fixed: it stays aimed")
@@ -599,12 +602,13 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "view":
             view(args.scene)
         elif args.command == "teleop":
-            if args.port is not None and args.device != "socket":  # else silently unused
-                raise UserError(f"--port is the socket device's; it needs --device socket, not {args.device}",
-                                status=2)
+            for flag, given in (("--port", args.port), ("--haptic-cpu", args.haptic_cpu)):
+                if given is not None and args.device != "socket":  # else silently unused
+                    raise UserError(f"{flag} is the socket device's; it needs --device socket, not {args.device}",
+                                    status=2)
             from viscera.teleop.app import teleop
             teleop(args.task, args.seed, args.device, args.record, args.port, args.time_limit, args.scene,
-                   args.camera, float(args.optics), args.keys)
+                   args.camera, float(args.optics), args.keys, args.haptic_cpu)
         elif args.command == "play":
             success, _ = play(args.task, args.seed, args.policy, args.time_limit, args.quiet, scene=args.scene)
             return 0 if success else 1

@@ -121,7 +121,7 @@ def default_stiffnesses(length: float) -> tuple[float, float]:
 def _info(model: mujoco.MjModel, instance: int) -> np.ndarray | None:
     """Length, radius, mass, control points, spheres, samples per segment, sleep (1 or 0), sleep time
     (s), as the plugin reads them."""
-    out = np.zeros(8)
+    out = np.zeros(9)
     status = _library.native().viscera_intestine_info(
         ctypes.c_void_p(model._address), instance, out.ctypes.data_as(ctypes.c_void_p))
     return out if status == 0 else None
@@ -168,7 +168,7 @@ class Grasp:
     site: str          # the site where the jaws hold
     status: str        # "open", "holding", or "closed" (closed without a hold: missed or slipped)
     abscissa: float    # m along the rest axis from its first point, of the held point (when holding)
-    slips: int         # holds lost to the slip force limit since the last reset
+    slips: int         # holds lost since the last reset: slid out of the jaws, or torn out past grasp_slip_force
 
     @property
     def holding(self) -> bool:
@@ -184,7 +184,7 @@ class Intestine:
     name: str
     config: Mapping[str, str]  # the attributes given in the MJCF, as strings
     rest_length: float         # m, defaults applied
-    radius: float              # m, tube and collision sphere radius
+    radius: float              # m, tube and collision sphere radius (at the start, if it tapers)
     mass: float                # kg
     control_count: int
     sphere_count: int
@@ -192,6 +192,7 @@ class Intestine:
     sleeps: bool                 # config key `sleep`, its default applied: points at rest sleep
     sleep_time_s: float          # s, at rest this long a control point sleeps
     layout: Mapping[str, slice]  # plugin_state's blocks (offsets from the instance's plugin_stateadr)
+    radius_end: float = 0.0      # m, the radius at the end: `radius` unless the tube tapers (config `radius`, two values)
 
     def _state(self, data: mujoco.MjData) -> np.ndarray:
         start = int(self.model.plugin_stateadr[self.instance])
@@ -343,6 +344,7 @@ def intestines(model: mujoco.MjModel) -> list[Intestine]:
         found.append(Intestine(model, instance, name, config, rest_length=float(info[0]), radius=float(info[1]),
                                mass=float(info[2]), control_count=int(info[3]), sphere_count=int(info[4]),
                                samples_per_segment=int(info[5]), sleeps=bool(info[6]), sleep_time_s=float(info[7]),
+                               radius_end=float(info[8]),
                                layout=_layout(model, instance)))
     return found
 

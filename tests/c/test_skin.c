@@ -71,7 +71,7 @@ static void radius_profile_and_planar_frames(void) {
     double x = 0.02 * k;
     q[3 * k] = x; q[3 * k + 1] = 0.05 * sin(8 * x); q[3 * k + 2] = 0;
   }
-  vsc_skin_def def = {4, 12, 0.008, 0.012};
+  vsc_skin_def def = {4, 12, 0.008, 0.012, 1.0};
   mesh s = build(q, n, def);
   ENSURE(closed(&s));
   ENSURE(volume(&s) > 0);

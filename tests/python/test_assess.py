@@ -86,7 +86,8 @@ def test_a_scripted_episode_scores_as_its_script_plays():
     assert score["success"] == made.success is True
     assert score["time_s"] == pytest.approx(made.steps * made.control_timestep_s)
     assert grasper["path_length_m"] > 0.05 and grasper["grasps"] >= 1 and grasper["slips"] == 0
-    assert score["tissue"]["peak_pinch_n"] == pytest.approx(0.5 * 0.1 / np.hypot(0.004, 0.015) * 2, rel=1e-6)
+    # fully closed: kp (0.1 rad - 0) over the lever, the jaw's middle (half its 15.5 mm: the scene's grasp_lever)
+    assert score["tissue"]["peak_pinch_n"] == pytest.approx(0.5 * 0.1 / (0.5 * np.hypot(0.004, 0.015)), rel=1e-4)
     assert score["tissue"]["peak_pinch_n"] < assess.PERFORATION_PINCH_N
     assert score["safety_cost"] > 0.0  # it grips harder than needed while it holds
 

@@ -137,6 +137,8 @@ def test_run_refuses_a_bad_option_in_one_line(tmp_path, option, value, names):
      ["required: --seed", "-s: no such option"]),
     (["replay", "--jsn", "{tmp}/x.json"], ["--jsn: did you mean --json?"]),  # argparse took x.json for the recording
     (["teleop", "clear_area", "--port", "47001"], ["--port", "--device socket"]),
+    (["teleop", "clear_area", "--haptic-cpu", "1"], ["--haptic-cpu", "--device socket"]),
+    (["teleop", "clear_area", "--haptic-cpu", "x"], ["--haptic-cpu", "x"]),
     (["teleop", "clear_area", "--time-limit", "nan"], ["--time-limit", "nan"]),
     (["view", "x.xml", "--camera", "0"], ["--camera: no such option"]),
 ])

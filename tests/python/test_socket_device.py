@@ -260,6 +260,32 @@ def test_reference_client_beside_a_real_time_session(tmp_path):
     assert result.ticks > 0
 
 
+def test_a_pinned_server_runs_on_its_core_above_a_client_sharing_it():
+    """SocketDevice(cpu=k): the server process on core k only, one real-time priority above the
+    reference client's loop (where the system grants real-time), so that a POSE from a client on the
+    same core preempts it at once; a core the machine lacks is a DeviceError naming it."""
+    import os
+
+    from viscera.teleop.haptic_client import REALTIME_PRIORITY
+
+    core = max(os.sched_getaffinity(0))
+    device = SocketDevice(port=0, cpu=core)
+    device.start(TOOLS)
+    try:
+        assert os.sched_getaffinity(device._server.pid) == {core}
+        assert device.scheduling.endswith(f"core {core}")
+        if device.scheduling.startswith("SCHED_FIFO"):
+            assert device.scheduling.startswith(f"SCHED_FIFO {REALTIME_PRIORITY + 1}")
+        device.feedback(snapshot())
+        peer = Peer(device.port)
+        assert peer.reply(protocol.Force, peer.pose([(0, (0.0,) * 5)])) is not None
+        peer.close()
+    finally:
+        device.close()
+    with pytest.raises(DeviceError, match=f"cannot run on core {os.cpu_count()}"):
+        SocketDevice(port=0, cpu=os.cpu_count())
+
+
 def test_the_servo_loops_make_no_reference_cycles():
     """The client and the server process run with the cyclic collector off (haptic_client.
     collector_paused): that leaks nothing only if their loops make no reference cycles. Run both

@@ -23,6 +23,7 @@ typedef struct found_contact {
   int rigid;            // 1: sphere a against geom b
   double s, t;          // self: closest points' parameters on segments a and b
   double depth;         // m
+  double radius;        // the tube's radius there (m): rigid, sphere a's; self, the mean at the closest points
   double n[3];          // unit normal, towards a
   double relative[3];   // a's velocity relative to b's at the contact (m/s)
   double point[3];      // rigid: the contact point on the geom's surface (m)
@@ -54,12 +55,13 @@ static inline double push_share(double depth, double radius, double separation) 
 // Normal force, plus the friction force of a contact with relative velocity
 // `relative` (m/s); `elongation` is its stick spring (NULL: none). Writes the
 // total force into f and the tangential velocity into tangent.
-static inline __attribute__((always_inline)) double contact_force(const vsc_rod* rod, double depth, const double n[3], const double relative[3],
-                            double mu, double c, const double* elongation, double f[3], double tangent[3]) {
+static inline __attribute__((always_inline)) double contact_force(const vsc_rod* rod, double depth, double radius,
+                            const double n[3], const double relative[3], double mu, double c,
+                            const double* elongation, double f[3], double tangent[3]) {
   double k = rod->def.contact_stiffness;
   double separation = relative[0] * n[0] + relative[1] * n[1] + relative[2] * n[2];
-  double cap = VSC_SPRING_DEPTH * rod->def.radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
-  double normal = push_share(depth, rod->def.radius, separation) * k * spring - c * separation;
+  double cap = VSC_SPRING_DEPTH * radius, spring = depth < cap ? depth : cap;  // see VSC_PUSH_OUT_SPEED
+  double normal = push_share(depth, radius, separation) * k * spring - c * separation;
   if (!(normal > 0.0)) return 0.0;  // penalty contacts push, never pull
   double ft[3];
   for (int a = 0; a < 3; ++a) {
@@ -136,12 +138,14 @@ static void self_pair(void* context, int earlier, int item) {
     // pairs need none: their build distances already rule out all but ~1 %)
     const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
     double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
-    double reach = 2.0 * rod->def.radius + (sa[3] + sb[3]);
+    double reach = 2.0 * rod->radius_max + (sa[3] + sb[3]);
     if (gap2 >= reach * reach) return;
   }
   double s, t, d[3];
   double distance = vsc_segment_gap(x, a, b, &s, &t, d);
-  double depth = 2.0 * rod->def.radius - distance;
+  const double* R = rod->sphere_radius;  // the tube's radius at the closest points (tapered: varies)
+  double ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  double depth = (ra + rb) - distance;
   if (!(depth > 0.0)) return;
   found_contact spare, *found = next_slot(p, &spare);
   found->a = a;
@@ -150,6 +154,7 @@ static void self_pair(void* context, int earlier, int item) {
   found->s = s;
   found->t = t;
   found->depth = depth;
+  found->radius = 0.5 * (ra + rb);
   found->n[0] = found->n[1] = 0.0;  // crossing axes: any direction separates them
   found->n[2] = 1.0;
   if (distance > 0.0)
@@ -169,7 +174,7 @@ static void sphere_geom(void* context, int i) {
   const vsc_geom* geom = &p->world->geoms[p->geom];
   // a sleeping sphere on a static geom stays as it was; a moving body's geom still pushes it
   if (rod->asleep_count > 0 && rod->sphere_asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
-  double r = rod->def.radius;
+  double r = rod->sphere_radius[i];
   const double* x = rod->sphere_xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
@@ -186,6 +191,7 @@ static void sphere_geom(void* context, int i) {
   found->rigid = 1;
   found->s = found->t = 0.0;
   found->depth = depth;
+  found->radius = r;
   // contact point on the geom surface, and the sphere's velocity relative to it
   for (int c = 0; c < 3; ++c) {
     found->n[c] = n[c];
@@ -210,7 +216,8 @@ static void push(pass* p, const found_contact* found) {
     const double* stick = p->context->stick ? p->context->stick + VSC_STICK_SIZE * a : NULL;
     const double* elongation = stick && (int)stick[0] == b ? stick + 1 : NULL;
     if (scale) c *= scale[a];
-    double normal = contact_force(rod, found->depth, found->n, found->relative, geom->friction, c, elongation, f, tangent);
+    double normal = contact_force(rod, found->depth, found->radius, found->n, found->relative, geom->friction, c,
+                                  elongation, f, tangent);
     if (normal <= 0.0) return;
     vsc_place_add_at_sphere(rod, a, f, p->Q);
     if (p->world->geom_wrench) {
@@ -231,7 +238,8 @@ static void push(pass* p, const found_contact* found) {
     least = scale[b] < least ? scale[b] : least;
     c *= scale[b + 1] < least ? scale[b + 1] : least;
   }
-  double normal = contact_force(rod, found->depth, found->n, found->relative, mu, c, elongation, f, tangent);
+  double normal = contact_force(rod, found->depth, found->radius, found->n, found->relative, mu, c, elongation, f,
+                                tangent);
   if (normal <= 0.0) return;
   double share[3];
   for (int k = 0; k < 3; ++k) share[k] = (1.0 - s) * f[k];
@@ -271,7 +279,7 @@ static void find_contacts(pass* p) {
   reserve(rod, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
   int all_asleep = rod->asleep_count == rod->n;  // then only moving bodies' geoms can touch it
   if (rod->def.self_collision && !all_asleep) {
-    double contact = 2.0 * rod->def.radius * SKIP_SLACK;
+    double contact = 2.0 * rod->radius_max * SKIP_SLACK;
     const double* moved = l->segment_moved;
     for (int k = 0; k < l->self_count; ++k) {
       int a = l->self_pairs[2 * k], b = l->self_pairs[2 * k + 1];
@@ -281,7 +289,7 @@ static void find_contacts(pass* p) {
   }
   if (l->geom_count == 0) return;
   const double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
-  double contact = rod->def.radius * SKIP_SLACK;
+  double contact = rod->radius_max * SKIP_SLACK;
   for (int k = 0; k < l->geom_count; ++k) {
     int g = l->geom_pairs[2 * k], i = l->geom_pairs[2 * k + 1];
     if (all_asleep && world->geoms[g].is_static) continue;
@@ -315,15 +323,15 @@ void vsc_rod_visit_contacts(const vsc_rod* rod,
 
 // Potential of a penalty spring at depth d > 0 (J): 1/2 k d^2, linear past
 // VSC_SPRING_DEPTH radii, where its force stops growing.
-static double spring_energy(const vsc_rod* rod, double depth) {
-  double k = rod->def.contact_stiffness, cap = VSC_SPRING_DEPTH * rod->def.radius;
+static double spring_energy(const vsc_rod* rod, double depth, double radius) {
+  double k = rod->def.contact_stiffness, cap = VSC_SPRING_DEPTH * radius;
   return depth < cap ? 0.5 * k * depth * depth : k * cap * (depth - 0.5 * cap);
 }
 
 // Penalty potential of one sphere-geom candidate (J), and the deepest rigid contact.
 static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int g, int i, vsc_deepest_contact* deepest) {
   const vsc_geom* geom = &world->geoms[g];
-  double r = rod->def.radius, n[3];
+  double r = rod->sphere_radius[i], n[3];
   const double* x = rod->sphere_xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
@@ -337,14 +345,17 @@ static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int
     deepest->geom = g;
     deepest->sphere = i;
   }
-  return spring_energy(rod, depth);
+  return spring_energy(rod, depth, r);
 }
 
 static double self_pair_energy(const vsc_rod* rod, int a, int b) {
   if (b - a < rod->self_gap) return 0.0;
   double s, t, d[3];
-  double depth = 2.0 * rod->def.radius - vsc_segment_gap(rod->sphere_xyz, a, b, &s, &t, d);
-  return depth > 0.0 ? spring_energy(rod, depth) : 0.0;
+  double distance = vsc_segment_gap(rod->sphere_xyz, a, b, &s, &t, d);
+  const double* R = rod->sphere_radius;
+  double ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  double depth = (ra + rb) - distance;
+  return depth > 0.0 ? spring_energy(rod, depth, 0.5 * (ra + rb)) : 0.0;
 }
 
 double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest) {

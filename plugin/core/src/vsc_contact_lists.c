@@ -112,7 +112,7 @@ typedef struct build {
 // admit several times more pairs.
 static void keep_self(build* b, int lo, int hi) {
   vsc_contact_lists* l = b->rod->lists;
-  double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->def.radius;
+  double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->radius_max;
   double distance = vsc_segment_gap(b->rod->sphere_xyz, lo, hi, &s, &t, d);
   if (distance > limit) return;
   if (l->self_count >= l->self_capacity) {
@@ -178,7 +178,7 @@ static void build_self_direct(vsc_rod* rod, build* b) {
   vsc_contact_lists* l = rod->lists;
   vsc_contact_lists_update_segments(rod);
   int segments = rod->def.collision_sphere_count - 1;
-  double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->def.radius;
+  double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->radius_max;
   const double* seg = l->segment;  // midpoints and half lengths, current
   double* mx = l->build_scratch;
   double* my = mx + segments;
@@ -208,7 +208,7 @@ static void build_self_direct(vsc_rod* rod, build* b) {
 static int build_self(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
-  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
   l->self_count = 0;
   if (spheres <= DIRECT_BUILD_SPHERES) {
@@ -247,7 +247,7 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
 static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int spheres = rod->def.collision_sphere_count;
-  double r = rod->def.radius, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
+  double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
   l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
@@ -326,7 +326,7 @@ VSC_VECTOR_CLONES static void distances_moved(const double* restrict x, const do
 // Distance each sphere moved from `snapshot` (3 per sphere) into `moved`;
 // returns 1 while none moved by more than half the margin.
 static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* moved) {
-  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   int spheres = rod->def.collision_sphere_count;
   distances_moved(rod->sphere_xyz, snapshot, moved, spheres);
   double most = 0.0;
@@ -351,7 +351,7 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
   if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
-  double half = 0.5 * VSC_CONTACT_MARGIN * rod->def.radius;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
     double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;

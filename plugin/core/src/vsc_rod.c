@@ -36,6 +36,19 @@ vsc_rod_def vsc_default_rod_def(void) {
   return def;
 }
 
+double vsc_rod_def_radius_at(const vsc_rod_def* def, double s) {
+  if (!(def->radius_end > 0.0)) return def->radius;
+  return def->radius + s * (def->radius_end - def->radius);
+}
+
+double vsc_rod_def_radius_max(const vsc_rod_def* def) {
+  return def->radius_end > def->radius ? def->radius_end : def->radius;
+}
+
+double vsc_rod_def_radius_min(const vsc_rod_def* def) {
+  return def->radius_end > 0.0 && def->radius_end < def->radius ? def->radius_end : def->radius;
+}
+
 int vsc_default_collision_sphere_count(double length, double radius) {
   double count = ceil(length / radius - 1e-9) + 1.0;  // in double: no int overflow
   return isfinite(count) && count <= VSC_MAX_COLLISION_SPHERES ? (int)count : -1;
@@ -65,6 +78,7 @@ static vsc_status validate(const vsc_rod_def* d) {
   if (d->control_count > VSC_MAX_CONTROL_POINTS || d->collision_sphere_count > VSC_MAX_COLLISION_SPHERES ||
       (double)(d->control_count - 1) * (double)d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
     return VSC_ERROR_INVALID_ARGUMENT;
+  if (!(d->radius_end == 0.0 || finite_pos(d->radius_end))) return VSC_ERROR_INVALID_ARGUMENT;
   if (!finite_pos(d->length) || !finite_pos(d->mass) || !finite_pos(d->radius) ||
       !finite_pos(d->contact_stiffness))
     return VSC_ERROR_INVALID_ARGUMENT;
@@ -101,14 +115,24 @@ static void assemble_mass(vsc_rod* rod) {
                                    0.1739274225687269};
   int n = rod->n;
   double segment_mass = rod->def.mass / (double)(n - 1);  // ds = du / (n-1)
+  // a tapered tube's mass per length follows its section, radius^2 (the lumen full), about its
+  // mean over the length, (r0^2 + r0 r1 + r1^2) / 3, so that the total stays `mass`; this
+  // quadratic times the basis's degree 6 is not integrated exactly, but the total is (the basis
+  // sums to 1)
+  double r0 = rod->def.radius, r1 = vsc_rod_def_radius_at(&rod->def, 1.0);
+  double mean_square = (r0 * r0 + r0 * r1 + r1 * r1) / 3.0;
+  int tapered = r1 != r0;
   memset(rod->mass_band, 0, sizeof(double) * 4 * n);
   for (int j = 0; j < n - 1; ++j) {
     for (int g = 0; g < 4; ++g) {
-      vsc_basis b = vsc_spline_basis(n, ((double)j + node[g]) / (double)(n - 1));
+      double s = ((double)j + node[g]) / (double)(n - 1);
+      vsc_basis b = vsc_spline_basis(n, s);
+      double here = vsc_rod_def_radius_at(&rod->def, s);
+      double share = tapered ? segment_mass * weight[g] * (here * here / mean_square) : segment_mass * weight[g];
       for (int r = 0; r < 4; ++r) {
         for (int c = 0; c <= r; ++c) {  // lower band: row first+r, column first+c
           int row = b.first + r, col = b.first + c;
-          rod->mass_band[4 * row + 3 + col - row] += segment_mass * weight[g] * b.weight[r] * b.weight[c];
+          rod->mass_band[4 * row + 3 + col - row] += share * b.weight[r] * b.weight[c];
         }
       }
     }
@@ -184,6 +208,7 @@ enum {
   ARRAY_SCRATCH,         // 10 N: sample_x .. edge_length
   ARRAY_SPHERE_XYZ,      // 3 per sphere
   ARRAY_SPHERE_VELOCITY, // 3 per sphere
+  ARRAY_SPHERE_RADIUS,   // 1 per sphere
   ARRAY_STAGE,           // 8 x 3n
   ARRAY_SAMPLE_HESSIAN,  // 27 N
   ARRAY_SYSTEM,          // 3n x (half width + 1), at the half width's bound
@@ -217,6 +242,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_SCRATCH] = 10.0 * N * d;
   bytes[ARRAY_SPHERE_XYZ] = 3.0 * spheres * d;
   bytes[ARRAY_SPHERE_VELOCITY] = 3.0 * spheres * d;
+  bytes[ARRAY_SPHERE_RADIUS] = spheres * d;
   bytes[ARRAY_STAGE] = 24.0 * n * d;
   bytes[ARRAY_SAMPLE_HESSIAN] = 27.0 * N * d;
   bytes[ARRAY_SYSTEM] = 3.0 * n * (half_width + 1.0) * d;
@@ -271,6 +297,7 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->scratch = (double*)AT(ARRAY_SCRATCH);
   rod->sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
   rod->sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
+  rod->sphere_radius = (double*)AT(ARRAY_SPHERE_RADIUS);
   rod->stage = (double*)AT(ARRAY_STAGE);
   rod->sample_hessian = (double*)AT(ARRAY_SAMPLE_HESSIAN);
   rod->system = (double*)AT(ARRAY_SYSTEM);
@@ -331,8 +358,11 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->def.pinned = rod->pinned;
   rod->energy_state = rod->backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
-  for (int i = 0; i < spheres; ++i)
+  for (int i = 0; i < spheres; ++i) {
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
+    rod->sphere_radius[i] = vsc_rod_def_radius_at(def, (double)i / (double)(spheres - 1));
+  }
+  rod->radius_max = vsc_rod_def_radius_max(def);
   build_gather(rod);
   // the Jacobian couples the control points of samples up to two apart (bend
   // springs, bending angles), the mass matrix those up to three apart
@@ -357,7 +387,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   // the rest axis than pi r (the arc of the tightest fold, whose centre line
   // has radius r) are neighbours: collide when (b - a - 1) spacing >= pi r
   double sphere_spacing = def->length / (double)(spheres - 1);
-  rod->self_gap = (int)ceil(VSC_PI * def->radius / sphere_spacing - 1e-9) + 1;
+  rod->self_gap = (int)ceil(VSC_PI * rod->radius_max / sphere_spacing - 1e-9) + 1;  // tapered: the widest fold
   assemble_mass(rod);
   vsc_contact_load_prepare(rod);
   status = factor_mass(rod);
@@ -393,5 +423,7 @@ double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_da
 const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->sphere_xyz; }
 
 const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->sphere_velocity; }
+
+const double* vsc_rod_sphere_radii(const vsc_rod* rod) { return rod->sphere_radius; }
 
 int vsc_rod_jacobian_half_width(const vsc_rod* rod) { return rod->jacobian_half_width; }

@@ -133,7 +133,7 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
       grasp->reaction[c] += weight * (grasp->stiffness * moved[c] + grasp->damping * accelerated[c]);
   }
   if (!world->geom_wrench) return;
-  double normal[3], k = rod->def.contact_stiffness, c = rod->def.contact_damping, r = rod->def.radius;
+  double normal[3], k = rod->def.contact_stiffness, c = rod->def.contact_damping;
   for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0; ++i) {
     int geom = vsc_rod_rigid_touch(rod, i, normal);
     if (geom < 0) continue;
@@ -146,6 +146,7 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
     double f[3] = {change * normal[0], change * normal[1], change * normal[2]};  // on the sphere
     const double* x = rod->sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
     const double* p = world->geoms[geom].position;
+    double r = rod->sphere_radius[i];
     double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
     vsc_wrench_add(world->geom_wrench + 6 * geom, -weight, f, NULL, arm);
   }

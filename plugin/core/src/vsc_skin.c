@@ -13,7 +13,7 @@ double vsc_skin_radius(double radius_min, double radius_max, double u) {
 }
 
 vsc_skin_def vsc_default_skin_def(void) {
-  vsc_skin_def def = {4, 16, 0.0125, 0.0125};
+  vsc_skin_def def = {4, 16, 0.0125, 0.0125, 1.0};
   return def;
 }
 
@@ -56,7 +56,7 @@ static void axis_point(const double* q, int n, double s, double p[3], double t[3
 vsc_status vsc_skin_build(const double* q, int n, const vsc_skin_def* def, double* vertices, double* normals,
                           int* triangles) {
   if (n < 4 || def->rings_per_segment < 1 || def->ring_points < 3 || !(def->radius_min > 0.0) ||
-      !(def->radius_max >= def->radius_min))
+      !(def->radius_max >= def->radius_min) || !(def->taper_end > 0.0))
     return VSC_ERROR_INVALID_ARGUMENT;
   int rings = ring_count(n, def), m = def->ring_points;
   double p[3], t[3], k[3], b[3], t_next[3], p_next[3];
@@ -81,6 +81,7 @@ vsc_status vsc_skin_build(const double* q, int n, const vsc_skin_def* def, doubl
     double u = s * (double)(n - 1) - floor(s * (double)(n - 1));
     if (r == rings - 1) u = 1.0;
     double radius = vsc_skin_radius(def->radius_min, def->radius_max, u);
+    if (def->taper_end != 1.0) radius *= 1.0 + s * (def->taper_end - 1.0);
     for (int i = 0; i < m; ++i) {
       double angle = 2.0 * VSC_PI * (double)i / (double)m, ca = cos(angle), sa = sin(angle);
       double* v = vertices + 3 * (r * m + i);

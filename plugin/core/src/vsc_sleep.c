@@ -136,7 +136,7 @@ static void wake_by_contact(void* data, int rigid, int a, int b, double speed, d
   const unsigned char* asleep = rod->sphere_asleep;
   if (rigid) {
     if (asleep[a] && (speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed ||
-                      depth > VSC_SLEEP_WAKE_DEPTH * rod->def.radius))
+                      depth > VSC_SLEEP_WAKE_DEPTH * rod->sphere_radius[a]))
       wake_sphere(w, a);
     return;
   }

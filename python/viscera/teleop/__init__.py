@@ -3,9 +3,10 @@ a gamepad, a SpaceMouse or an external haptic device on a socket (viscera.teleop
 in MuJoCo's viewer with an overlay (viscera.teleop.app, `python -m viscera teleop`)."""
 
 
-def make(name: str, port: int | None = None):
+def make(name: str, port: int | None = None, cpu: int | None = None):
     """The device called `name` (one of viscera.teleop.devices.DEVICES); DeviceError when it
-    cannot start. Each device's library is imported only when that device is made."""
+    cannot start. Each device's library is imported only when that device is made. `port` and
+    `cpu` (the core its server runs on) are the socket device's."""
     from viscera.teleop import devices
     if name == "keyboard":
         return devices.KeyboardDevice()
@@ -15,5 +16,5 @@ def make(name: str, port: int | None = None):
         return devices.SpaceMouseDevice()
     if name == "socket":
         from viscera.teleop.socket_device import SocketDevice
-        return SocketDevice() if port is None else SocketDevice(port=port)
+        return SocketDevice(**({} if port is None else {"port": port}), cpu=cpu)
     raise devices.DeviceError(f"--device {name!r}: not a device; one of {', '.join(devices.DEVICES)}")

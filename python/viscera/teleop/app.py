@@ -112,7 +112,7 @@ class Display(threading.Thread):
 
 def teleop(task: str, seed: int | None = None, device: str = "keyboard", record: str | None = None,
            port: int | None = None, time_limit_s: float | None = None, scene: str = "abdomen", camera: str = "steer",
-           optics_deg: float = 0.0, keys: str = "hold") -> dict:
+           optics_deg: float = 0.0, keys: str = "hold", haptic_cpu: int | None = None) -> dict:
     """Run one rehearsal episode in MuJoCo's viewer; print the score and the verdict; return the score."""
     import viscera.tasks
     if task not in viscera.tasks.ALL:
@@ -121,7 +121,8 @@ def teleop(task: str, seed: int | None = None, device: str = "keyboard", record:
     # Mesa's software GL (no GPU) would draw on every core; on one, the simulation keeps the other
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        hardware = devices.HeldKeyboardDevice() if device == "keyboard" and keys == "hold" else make_device(device, port)
+        hardware = (devices.HeldKeyboardDevice() if device == "keyboard" and keys == "hold"
+                    else make_device(device, port, haptic_cpu))
     except devices.DeviceError as error:
         raise UserError(str(error), status=2) from None
     session = None

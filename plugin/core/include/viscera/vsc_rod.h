@@ -55,7 +55,9 @@ typedef struct vsc_rod_def {
   int lumped_mass;                   ///< 1 (default): M lumped, sum_j M_kj on the diagonal (same total
                                      ///< mass, gravity and statics, a stable step about 1.4x longer, a
                                      ///< diagonal solve); 0: the paper's consistent band M
-  double radius;                     ///< collision sphere radius, the tube radius (m, > 0)
+  double radius;                     ///< the tube's radius at s = 0, its collision spheres' there (m, > 0)
+  double radius_end;                 ///< the tube's radius at s = 1 (m); 0 (default): `radius` all along.
+                                     ///< Linear in s between: spheres, contacts, mass (as radius^2) follow it
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
   double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
   double contact_damping;            ///< penalty damping, also tangential (N s/m, >= 0)
@@ -93,6 +95,14 @@ typedef struct vsc_rod_def {
 /// 4 m / length, so that every length is the same material: 40 N and 4 N
 /// divided by the length).
 vsc_rod_def vsc_default_rod_def(void);
+
+/// The tube's radius at parametric abscissa s in [0, 1] (m): linear from
+/// `radius` to `radius_end` (or `radius` all along).
+double vsc_rod_def_radius_at(const vsc_rod_def* def, double s);
+
+/// The largest and the smallest of the tube's radii (m).
+double vsc_rod_def_radius_max(const vsc_rod_def* def);
+double vsc_rod_def_radius_min(const vsc_rod_def* def);
 
 /// Default collision spheres along `length` (m) for radius `radius` (m):
 /// ceil(length / radius) + 1, a spacing of at most one radius, so neighbours
@@ -154,6 +164,10 @@ const double* vsc_rod_sphere_centres(const vsc_rod* rod);
 /// The collision spheres' velocities (m/s, 3 per sphere) as last placed with
 /// velocities (vsc_rod_update_spheres; owned by the rod).
 const double* vsc_rod_sphere_velocities(const vsc_rod* rod);
+
+/// Collision sphere radii (m; the tube's radius there: all `radius` unless it
+/// tapers). Rod-owned, fixed at creation.
+const double* vsc_rod_sphere_radii(const vsc_rod* rod);
 
 /// The stiffest contact mode's damping rate c omega_contact^2 / k (1/s), as
 /// vsc_rod_frequencies last set it (0 before).

@@ -26,6 +26,8 @@ typedef struct vsc_skin_def {
   int ring_points;        ///< vertices per ring (>= 3)
   double radius_min;      ///< radius midway between control points (m, > 0)
   double radius_max;      ///< radius at control points (m, >= radius_min)
+  double taper_end;       ///< a tapered tube: both radii scaled linearly from 1 at s = 0 to this at s = 1
+                          ///< (> 0; 1: not tapered)
 } vsc_skin_def;
 
 /// 4 rings per segment, 16 points per ring, radius 12.5 mm.
