@@ -488,8 +488,9 @@ def haptics_runs() -> str:
             rows.append([record["other_cores"], str(number), f"{r['rate_hz']:.1f}", f"{100 * r['deadline_misses']:.3f} %",
                          f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f} / {r['latency_max_ms']:.2f}",
                          f"{r['passivity_min_j']:.1g}",
-                         f"{100 * hold['depth_force_relative_oscillation']:.3f} % / "
-                         f"{100 * hold['tissue_force_relative_oscillation']:.3f} %",
+                         (f"{100 * hold['depth_force_relative_oscillation']:.3f} % / "
+                          f"{100 * hold['tissue_force_relative_oscillation']:.3f} %") if hold.get("contact", True)
+                         else "the press found no bowel",
                          f"{r['session']['ticks_behind']} of {r['session']['ticks']:,}",
                          f"{1e3 * r['simulation_behind_max_s']:.0f} ms"])
     rows.append(["*goal*", "", "1000", "at most 0.1 %", "p99 at most 2", "at least -0.001", "at most 5 %", "", ""])

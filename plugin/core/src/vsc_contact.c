@@ -143,8 +143,11 @@ static void self_pair(void* context, int earlier, int item) {
   }
   double s, t, d[3];
   double distance = vsc_segment_gap(x, a, b, &s, &t, d);
-  const double* R = rod->sphere_radius;  // the tube's radius at the closest points (tapered: varies)
-  double ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  double ra = rod->def.radius, rb = ra;
+  if (rod->tapered) {  // the tube's radius at the closest points
+    const double* R = rod->sphere_radius;
+    ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  }
   double depth = (ra + rb) - distance;
   if (!(depth > 0.0)) return;
   found_contact spare, *found = next_slot(p, &spare);
@@ -352,8 +355,11 @@ static double self_pair_energy(const vsc_rod* rod, int a, int b) {
   if (b - a < rod->self_gap) return 0.0;
   double s, t, d[3];
   double distance = vsc_segment_gap(rod->sphere_xyz, a, b, &s, &t, d);
-  const double* R = rod->sphere_radius;
-  double ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  double ra = rod->def.radius, rb = ra;
+  if (rod->tapered) {
+    const double* R = rod->sphere_radius;
+    ra = R[a] + s * (R[a + 1] - R[a]), rb = R[b] + t * (R[b + 1] - R[b]);
+  }
   double depth = (ra + rb) - distance;
   return depth > 0.0 ? spring_energy(rod, depth, 0.5 * (ra + rb)) : 0.0;
 }

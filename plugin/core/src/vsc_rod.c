@@ -363,6 +363,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
     rod->sphere_radius[i] = vsc_rod_def_radius_at(def, (double)i / (double)(spheres - 1));
   }
   rod->radius_max = vsc_rod_def_radius_max(def);
+  rod->tapered = vsc_rod_def_radius_at(def, 1.0) != def->radius;
   build_gather(rod);
   // the Jacobian couples the control points of samples up to two apart (bend
   // springs, bending angles), the mass matrix those up to three apart

@@ -51,6 +51,7 @@ struct vsc_rod {
   double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
   double* sphere_radius;     ///< collision sphere radii, the tube's there (spheres) (m)
   double radius_max;         ///< the largest of them (m): what the broad phase inflates by
+  int tapered;               ///< 1: they differ (radius_end given and not radius): contacts interpolate them
   double* stage;             ///< integrator stages (8 x 3n)
   int jacobian_half_width;   ///< half-bandwidth of the force Jacobian over the 3n unknowns (vsc_jacobian.h)
   double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
