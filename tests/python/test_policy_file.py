@@ -23,7 +23,7 @@ from viscera import policy_file, recording
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 TASK = "grasp_lift"
-LINES = ["episode", "score", "grasper", "camera", "tissue", "success:"]  # what play prints for grasp_lift, in order
+LINES = ["episode", "score", "grasper", "camera", "tissue", "wall", "success:"]  # what play prints for grasp_lift, in order
 
 
 def viscera_command(*args, timeout=120) -> subprocess.CompletedProcess:
