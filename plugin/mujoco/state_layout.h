@@ -19,7 +19,8 @@
 //   grasps        6G   per grasper (grasp_sites), its hold: status (0 open,
 //                      1 holding, 2 closed without a hold: missed or slipped),
 //                      held abscissa s in [0, 1], held point in the site frame
-//                      (m, 3), slip count
+//                      (m, 3; it moves as the tissue slides in the jaws), slip
+//                      count (holds slid out of the jaws or torn out)
 //   rest          8n   per control point, its rest record (vsc_sleep.h): the
 //                      time it has been at rest (s; it sleeps from `sleep_time`
 //                      on), where its rest began (m, 3), asleep next to awake
