@@ -315,6 +315,26 @@ int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_
   return request.found;
 }
 
+typedef struct grasp_request {
+  const mjModel* m;
+  vsc_grasper_config* grasp;
+  int found;
+} grasp_request;
+
+static void copy_grasp(void* cache, void* context) {
+  intestine* it = (intestine*)cache;
+  grasp_request* request = (grasp_request*)context;
+  if (it->model != request->m) return;
+  *request->grasp = it->config.grasp;
+  request->found = 1;
+}
+
+int vsc_intestine_grasper_config(const mjModel* m, const mjData* d, int instance, vsc_grasper_config* grasp) {
+  grasp_request request = {m, grasp, 0};
+  if (d) vsc_registry_with(d, instance, copy_grasp, &request);
+  return request.found;
+}
+
 // Tool force sensors of this instance: the wrench the intestine exerted on the
 // sensor's body over the last step, torque about the body frame origin.
 static void compute_sensors(const mjModel* m, mjData* d, int instance, const mjtNum* wrench) {

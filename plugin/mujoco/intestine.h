@@ -21,6 +21,11 @@ void vsc_plugin_register_intestine(void);
 /// 0 if d has no caches for m (nothing written).
 int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count);
 
+/// The graspers' config of intestine `instance` as data `d`'s caches read it
+/// for model `m`, copied under the registry's lock (no config text parsed).
+/// Returns 1, or 0 if d has no caches for m (nothing written).
+int vsc_intestine_grasper_config(const mjModel* m, const mjData* d, int instance, vsc_grasper_config* grasp);
+
 /// Rebuild data `d`'s caches of intestine `instance` from model `m`'s config as
 /// it is now: for a model whose config values were rewritten in place (same
 /// lengths; plugin_attr) to start another episode without compiling. d's
