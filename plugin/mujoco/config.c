@@ -449,20 +449,18 @@ static int derive(reader* r, vsc_plugin_config* c, const vsc_rod_def* core) {
   }
   if (!given[VSC_KEY_radius_max]) c->skin.radius_max = d->radius;
   c->skin.taper_end = vsc_rod_def_radius_at(d, 1.0) / d->radius;  // the skin's radii scale with the tube's
-  if (given[VSC_KEY_young_modulus] && vsc_rod_def_radius_at(d, 1.0) != d->radius)
-    return fail(r, "attribute 'radius' = '%s' tapers the tube, and 'young_modulus' is given: a section that varies "
-                "along the tube is not supported; give 'stretch_stiffness' and 'bend_stiffness' instead",
-                raw(r, "radius"));
   if (!given[VSC_KEY_radius_min]) c->skin.radius_min = c->skin.radius_max;
   if (c->skin.radius_min > c->skin.radius_max)
     return fail(r, "attribute 'radius_min' = '%g' exceeds 'radius_max' = '%g'", c->skin.radius_min, c->skin.radius_max);
   // material: a Young's modulus gives the stretch springs EA and the curvature
   // term EI, and turns the paper's bend springs and global length term off
-  if (given[VSC_KEY_wall_thickness] && !given[VSC_KEY_young_modulus])
-    return fail(r, "attribute 'wall_thickness' needs 'young_modulus'");
-  if (given[VSC_KEY_wall_thickness] && !(c->wall_thickness <= d->radius))
+  int tapered = vsc_rod_def_radius_at(d, 1.0) != d->radius;
+  if (given[VSC_KEY_wall_thickness] && !given[VSC_KEY_young_modulus] && !tapered)
+    return fail(r, "attribute 'wall_thickness' needs 'young_modulus' or a tapered 'radius'");
+  if (given[VSC_KEY_wall_thickness] && !(c->wall_thickness <= vsc_rod_def_radius_max(d)))
     return fail(r, "attribute 'wall_thickness' = '%s' must be positive and at most 'radius' = %g (m)",
-                raw(r, "wall_thickness"), d->radius);
+                raw(r, "wall_thickness"), vsc_rod_def_radius_max(d));
+  d->wall_thickness = c->wall_thickness;  // a tapered tube's springs follow this section (0: solid)
   double stretch = 0.0, rigidity = 0.0;
   if (given[VSC_KEY_young_modulus])
     vsc_material_stiffnesses(c->young_modulus, d->radius, c->wall_thickness, d->length, &stretch, &rigidity);

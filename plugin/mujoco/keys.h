@@ -34,8 +34,8 @@
     "used when `mass` is absent") \
   X(radius, VSC_KEY_KIND_TAPER, FIELD(rod.radius), 0, 0, "m", CORE, \
     "tube radius: the collision spheres' radius. Two values taper the tube: the radius at the start and at " \
-    "the end, linear in the rest length between; the spheres, contacts, skin, drawing and mass (as radius^2) " \
-    "follow the local radius (see [taper](model.md#taper))") \
+    "the end, linear in the rest length between; the spheres, contacts, skin, drawing, mass (as radius^2) " \
+    "and springs (as the section's area and second moment; the stiffnesses are the start's) follow the local radius (see [taper](model.md#taper))") \
   X(radius_min, VSC_KEY_KIND_POSITIVE, FIELD(skin.radius_min), 0, 0, "m", DERIVED("`radius_max`"), \
     "skin radius between control points (<= `radius_max`)") \
   X(radius_max, VSC_KEY_KIND_POSITIVE, FIELD(skin.radius_max), 0, 0, "m", DERIVED("`radius`"), \
@@ -146,7 +146,8 @@
     "material: sets `stretch_stiffness` = EA / length and `bending_rigidity` = EI, and turns the bend " \
     "springs and global term off by default (see [material parameters](validation.md#material-parameters))") \
   X(wall_thickness, VSC_KEY_KIND_POSITIVE, FIELD(wall_thickness), 0, 0, "m", DERIVED("solid"), \
-    "tube wall (at most `radius`) for A and I; needs `young_modulus`") \
+    "tube wall (at most `radius`) for A and I: with `young_modulus`, EA and EI; with a tapered `radius`, " \
+    "how the springs scale along the tube. Needs one of the two") \
   X(bending_rigidity, VSC_KEY_KIND_NONNEGATIVE, FIELD(rod.bending_rigidity), 0, 0, "N m^2", DERIVED("E I, else 0"), \
     "EI of the curvature bending energy") \
   X(clamped, VSC_KEY_KIND_CHOICE, FIELD(clamped), 0, 0, "-", VALUE("none"), \

@@ -112,17 +112,44 @@ def _resting_height(x: float, y: float, radius: float) -> float:
 
 
 def colon_path() -> np.ndarray:
-    """The colon's initial polyline (m, (k, 3)) in the anatomical abdomen, 0.957 m: the caecum's
-    pole at the right caudal corner and the ascending colon up the right flank, resting on the
-    posterior wall every 2 cm (retroperitoneal: the scene pins these points); the transverse
-    colon from the hepatic flexure across the cranial side, 9 cm up, to fall on what lies
-    there; the descending colon down the left flank, resting on the wall like the ascending;
-    the sigmoid's loop 5.5 to 6 cm up, and the rectum's end on the pelvic brim."""
-    ascending = [(0.14, y, _resting_height(0.14, y, COLON_RADIUS)) for y in np.linspace(-0.125, 0.115, 13)]
-    transverse = [(0.07, 0.145, 0.09), (-0.07, 0.145, 0.09)]
-    descending = [(-0.14, y, _resting_height(-0.14, y, COLON_RADIUS)) for y in np.linspace(0.12, -0.10, 12)]
-    sigmoid = [(-0.10, -0.14, 0.055), (-0.04, -0.125, 0.06), (0.0, -0.14, _resting_height(0.0, -0.14, COLON_RADIUS))]
-    return np.array(ascending + transverse + descending + sigmoid)
+    """The colon's initial polyline (m, (k, 3)) in the anatomical abdomen, 1.47 m: an adult's
+    length (about 1.5 m in textbook anatomy, its sections about 20 cm ascending with the caecum,
+    46 cm transverse, 25 cm descending and 35 to 40 cm sigmoid). The caecum's pole lies at the
+    right caudal corner and the ascending colon runs up the right flank, resting on the posterior
+    wall every 2 cm (retroperitoneal: the scene pins these points), 0.25 m; the transverse colon,
+    0.55 m with both flexures, crosses the cranial edge from the hepatic flexure, its redundancy
+    in folds that rise 5.5 cm and fall onto each other there, where a surgeon lifts it to reach
+    the small bowel; the descending colon runs down the left flank, resting on the wall like the
+    ascending, 0.23 m; the sigmoid, 0.44 m, folds across the caudal edge to the rectum's end on
+    the pelvic brim. Both folds' strips lie beyond the small bowel's lay region and the tasks'
+    targets (y beyond +-0.115 m)."""
+    def resting(x: float, y: float, lift: float = 0.0) -> tuple[float, float, float]:
+        return x, y, _resting_height(x, y, COLON_RADIUS) + lift
+
+    ascending = [resting(0.14, y) for y in np.linspace(-0.125, 0.115, 13)]
+    transverse = [resting(x, 0.135, 0.055 * (i % 2)) for i, x in enumerate(np.linspace(0.11, -0.11, 9))]
+    descending = [resting(-0.14, y) for y in np.linspace(0.12, -0.10, 12)]
+    sigmoid = [resting(x, -0.13, 0.045 * (1 - i % 2)) for i, x in enumerate(np.linspace(-0.115, 0.035, 7))]
+    return np.array(ascending + transverse + descending + sigmoid + [resting(0.0, -0.15)])
+
+
+# colon_path's vertices: the ascending colon's, the transverse colon's folds (its lows at even
+# offsets), the descending colon's, then the sigmoid's folds (its lows at odd offsets) and the rectum
+ASCENDING, TRANSVERSE, DESCENDING, SIGMOID = range(0, 13), range(13, 22), range(22, 34), range(34, 41)
+
+
+def colon_pins(control_count: int) -> list[int]:
+    """The colon's pinned control points when `control_count` of them lie evenly along colon_path:
+    those on the ascending and the descending colon, the one nearest each fold's low vertex of the
+    transverse and the sigmoid colon (their mesocolons' roots), and the last (the rectum)."""
+    path = colon_path()
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    at = arc / arc[-1] * (control_count - 1)  # each vertex's place in control-point spacings
+    pins = {k for k in range(control_count)
+            for run in (ASCENDING, DESCENDING) if at[run[0]] - 1e-9 <= k <= at[run[-1]] + 1e-9}
+    lows = [v for v in TRANSVERSE if (v - TRANSVERSE[0]) % 2 == 0] + [v for v in SIGMOID if (v - SIGMOID[0]) % 2 == 1]
+    pins |= {int(round(at[v])) for v in lows}
+    return sorted(pins) + [-1]
 
 
 # The anatomical abdomen (assets/scenes/abdomen_anatomical.xml): the small bowel in three layers
@@ -215,7 +242,8 @@ def settle(scene: pathlib.Path, duration: float, quiet: bool = False, layout: in
     probe = mujoco.MjModel.from_xml_string(_with_shapes(text, shapes))
     gut = viscera.intestine(probe, cavity.bowel)
     try:
-        path = initial_path(gut.rest_length, gut.radius, layout, cavity)
+        # rows pitched by the mean radius: a tapered bowel's (a row of jejunum lies beside a row of ileum)
+        path = initial_path(gut.rest_length, 0.5 * (gut.radius + gut.radius_end), layout, cavity)
     except ValueError as error:  # an intestine too long for this cavity: the user's scene, found before stepping
         raise cli.UserError(f"{scene}: {error}") from error
     shapes = {cavity.bowel: ("polyline", path)} | {

@@ -13,8 +13,10 @@
 
 enum { N_POINTS = 8, SIZE = 3 * N_POINTS };
 
-static vsc_rod* small_rod(double rigidity, int clamped) {
+static vsc_rod* small_rod(double rigidity, int clamped, double radius_end) {
   vsc_rod_def def = vsc_default_rod_def();
+  def.radius_end = radius_end;  // 0: untapered
+  def.wall_thickness = 0.002;
   def.control_count = N_POINTS;
   def.length = 0.5;
   def.mass = 0.05;
@@ -91,9 +93,9 @@ static void compare(const double* analytic, const double* numeric, double relati
 // tension, so the spring Hessians are exact; the Gauss-Newton curvature term is
 // exact on the straight axis and off by the bow's angle squared here.
 static void stiffness_matches_differences(void) {
-  double rigidities[2] = {0.0, 1e-3};
-  for (int t = 0; t < 2; ++t) {
-    vsc_rod* rod = small_rod(rigidities[t], t == 1);
+  double rigidities[3] = {0.0, 1e-3, 1e-3}, radius_end[3] = {0.0, 0.0, 0.006};  // the third tapers
+  for (int t = 0; t < 3; ++t) {
+    vsc_rod* rod = small_rod(rigidities[t], t >= 1, radius_end[t]);
     double q[SIZE], v[SIZE] = {0};
     for (int k = 0; k < N_POINTS; ++k) {
       double s = (double)k / (N_POINTS - 1);
@@ -122,7 +124,7 @@ static void stiffness_matches_differences(void) {
 // indefinite; the band Jacobian must still make M + K positive definite, for
 // every weight, or the implicit step could not be solved.
 static void stiffness_is_semidefinite(void) {
-  vsc_rod* rod = small_rod(1e-2, 0);
+  vsc_rod* rod = small_rod(1e-2, 0, 0.0);
   unsigned seed = 3;
   double q[SIZE];
   for (int trial = 0; trial < 20; ++trial) {

@@ -77,10 +77,11 @@ static void mass_matrix_exact_band7_spd_total(void) {
 // -dE/dq from vsc_rod_forces against central differences, one term at a time
 // (the fourth: mesentery tethers alone, some slack, some pulling; the fifth:
 // curvature bending alone; the sixth: curvature with both ends clamped, along
-// directions the crumpled axis does not follow).
+// directions the crumpled axis does not follow; the seventh: every term on a
+// tapered tube, whose springs each scale by their section).
 static void gradient_matches_central_differences(void) {
-  double terms[6][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-  for (int t = 0; t < 6; ++t) {
+  double terms[7][3] = {{40, 0, 0}, {0, 3, 0}, {0, 0, 25}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {40, 3, 25}};
+  for (int t = 0; t < 7; ++t) {
     int n = 12;
     vsc_rod_def def = vsc_default_rod_def();
     def.control_count = n;
@@ -96,11 +97,16 @@ static void gradient_matches_central_differences(void) {
       double root[6] = {0.0, 0.0, -0.5, 3.0, 0.0, -0.5};
       for (int i = 0; i < 6; ++i) def.mesentery_root[i] = root[i];
     }
-    if (t >= 4) {
+    if (t == 4 || t == 5) {
       def.stretch_stiffness = 1e-9;
       def.bending_rigidity = 0.02;  // N m^2
     }
-    if (t == 5) {
+    if (t == 6) {
+      def.bending_rigidity = 0.02;
+      def.radius_end = 0.006;  // from 12.5 mm: the sections differ 4x in area, 19x in second moment
+      def.wall_thickness = 0.002;
+    }
+    if (t >= 5) {
       double start[3] = {0.0, 2.0, 1.0}, end[3] = {-1.0, 0.5, 0.0};  // normalised by creation
       def.clamp_start = def.clamp_end = 1;
       for (int i = 0; i < 3; ++i) {

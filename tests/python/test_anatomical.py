@@ -33,12 +33,17 @@ def _distance_to_wall(centre):
 
 def test_the_small_bowel_and_colon_are_sized_as_their_sources_say(abdomen):
     """Teitelbaum et al. 2013: 506 +- 105 cm in vivo; Cronin et al.: jejunal 24.5 mm and ileal
-    18.7 mm diameters; the colon's radius 2.5 to 3 cm; the bowel is the first instance."""
+    18.7 mm diameters, the taper from one to the other; the colon an adult's, at least 1.4 m, its
+    radius 2.5 to 3 cm; the bowel is the first instance."""
     model, small_bowel, colon = abdomen
     assert small_bowel.name.endswith("small_bowel") and colon.name.endswith("colon")
     assert small_bowel.rest_length == pytest.approx(5.06, abs=1e-9)
-    assert 0.0187 / 2 <= small_bowel.radius <= 0.0245 / 2  # between the ileum's and the jejunum's
-    assert 0.025 <= colon.radius <= 0.03
+    assert small_bowel.radius == pytest.approx(0.0245 / 2) and small_bowel.radius_end == pytest.approx(0.0187 / 2)
+    assert small_bowel.config["wall_thickness"] == "0.002"  # the springs scale as this wall's section (1.5 +- 0.5 mm)
+    assert colon.rest_length >= 1.4
+    assert colon.rest_length == pytest.approx(np.linalg.norm(np.diff(settle.colon_path(), axis=0), axis=1).sum(),
+                                              abs=1e-4)
+    assert 0.025 <= colon.radius <= 0.03 and colon.radius_end == colon.radius
     assert model.geom("posterior_wall").type[0] == mujoco.mjtGeom.mjGEOM_HFIELD  # curved, not a box
     for wall in ("left_flank", "right_flank", "diaphragm", "pelvic_brim"):
         assert model.geom(wall).type[0] == mujoco.mjtGeom.mjGEOM_CAPSULE
@@ -56,24 +61,33 @@ def test_the_mesentery_root_runs_from_upper_left_to_lower_right(abdomen):
 
 def test_the_colon_frames_the_bowel_and_the_ileum_joins_the_caecum(abdomen):
     """Ascending (right, x > 0) and descending (left) colon pinned along their length, each pinned
-    point resting on the posterior wall (retroperitoneal); the transverse and the sigmoid free; the
+    point resting on the posterior wall (retroperitoneal); the transverse and the sigmoid held at one
+    point of each fold (settle.colon_pins), their loops free and clear of the tasks' targets; the
     small bowel's last point touching the caecum."""
     model, small_bowel, colon = abdomen
     data = mujoco.MjData(model)
     points = colon.positions(data)
-    pinned = sorted(int(i) % colon.control_count for i in colon.config["pinned"].split())
-    ascending = [i for i in pinned if points[i, 0] > 0.1]
-    descending = [i for i in pinned if points[i, 0] < -0.1]
+    pinned = [int(i) for i in colon.config["pinned"].split()]
+    assert pinned == settle.colon_pins(colon.control_count)
+    pinned = sorted(i % colon.control_count for i in pinned)
+    ascending = [i for i in pinned if points[i, 0] > 0.12]
+    descending = [i for i in pinned if points[i, 0] < -0.12]
     assert len(ascending) >= 10 and len(descending) >= 10
     assert np.ptp(points[ascending, 1]) > 0.2 and np.ptp(points[descending, 1]) > 0.15  # along the flanks
     for i in ascending + descending:
         gap = _distance_to_wall(points[i]) - colon.radius
         assert -0.002 < gap < 0.004, (i, gap)  # on the wall, within the heightfield's facets
     free = [i for i in range(colon.control_count) if i not in pinned]
-    assert len(free) >= 15  # the transverse colon and the sigmoid hang free
+    assert len(free) >= 30  # the transverse colon's and the sigmoid's loops hang free
+    # the colon's free loops stay off the tasks' target region (its surface, not only its axis)
+    (x0, x1), (y0, y1) = scene.SCENES["anatomical"].target_region
+    axis = colon.axis_points(data, 400)
+    inside = (axis[:, 0] > x0) & (axis[:, 0] < x1) & (np.abs(axis[:, 1] - 0.5 * (y0 + y1)) < 0.5 * (y1 - y0) +
+                                                      colon.radius)
+    assert not inside.any(), axis[inside]
     ileum_end = small_bowel.positions(data)[-1]
     caecum = points[ascending]
-    assert np.min(np.linalg.norm(caecum - ileum_end, axis=1)) < small_bowel.radius + colon.radius + 0.03
+    assert np.min(np.linalg.norm(caecum - ileum_end, axis=1)) < small_bowel.radius_end + colon.radius + 0.03
 
 
 def test_the_shipped_abdomen_is_at_rest_without_recoveries(abdomen):
@@ -106,11 +120,11 @@ def test_the_bank_holds_both_intestines_settled_and_their_pins(abdomen):
 
 def test_the_settling_layout_lies_inside_the_colon_on_the_wall():
     cavity = settle.ANATOMICAL
-    path = settle.initial_path(5.06, 0.0105, 0, cavity)
+    path = settle.initial_path(5.06, 0.5 * (0.01225 + 0.00935), 0, cavity)
     assert np.linalg.norm(np.diff(path, axis=0), axis=1).sum() == pytest.approx(5.06, abs=1e-8)
     assert np.all(np.abs(path[:, 0]) <= 0.1 + 1e-9)  # inside the ascending and descending colon
     floor = settle.posterior_wall.wall_height(path[:, 0], path[:, 1])
-    assert np.all(path[:, 2] >= floor + 0.0105)  # on or above the wall, clear of it
+    assert np.all(path[:, 2] >= floor + 0.0108)  # on or above the wall, clear of it
 
 
 def test_an_unknown_scene_names_the_choices():

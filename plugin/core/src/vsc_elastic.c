@@ -46,10 +46,26 @@ VSC_VECTOR_CLONES static void scale_edges(double* restrict ex, double* restrict 
   }
 }
 
+// The same with each spring's stiffness k section[a] (a tapered tube).
+VSC_VECTOR_CLONES static void scale_edges_each(double* restrict ex, double* restrict ey, double* restrict ez,
+                                               const double* restrict el, const double* restrict section,
+                                               int count, double k, double rest, double extra) {
+  for (int a = 0; a < count; ++a) {
+    double scale = (k * section[a] * (el[a] - rest) + extra) / (el[a] + 1e-300);
+    ex[a] *= scale;
+    ey[a] *= scale;
+    ez[a] *= scale;
+  }
+}
+
 // Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
-// (N). The tiny addend keeps a zero-length spring finite: its vector is zero.
-static void spring_tensions(vsc_rod* rod, int count, double k, double rest, double extra) {
-  scale_edges(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, count, k, rest, extra);
+// (N); `section` (NULL: 1 for all) scales each spring's k. The tiny addend
+// keeps a zero-length spring finite: its vector is zero.
+static void spring_tensions(vsc_rod* rod, int count, double k, const double* section, double rest, double extra) {
+  if (section)
+    scale_edges_each(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, section, count, k, rest, extra);
+  else
+    scale_edges(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, count, k, rest, extra);
 }
 
 // f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
@@ -103,8 +119,9 @@ static void add_spring_forces(vsc_rod* rod, int gap, int first) {
 // F = -dE/dp to force_* if `forces`; returns its energy (J).
 static double curvature_bending(vsc_rod* rod, int forces) {
   int N = rod->sample_count;
-  double k = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
-  if (!(k > 0.0) || N < 3) return 0.0;
+  double k0 = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
+  if (!(k0 > 0.0) || N < 3) return 0.0;
+  const double* section = rod->curvature_scale;  // NULL untapered
   const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
   double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
   for (int a = 1; a + 1 < N; ++a) {
@@ -113,7 +130,7 @@ static double curvature_bending(vsc_rod* rod, int forces) {
     double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
     double inverse = 1.0 / sqrt(uu * ww);
     if (!isfinite(inverse)) continue;  // coincident samples: no angle
-    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse;
+    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse, k = section ? k0 * section[a] : k0;
     energy += k * (1.0 - c);
     if (!forces) continue;
     double du[3], dw[3];  // dc/du and dc/dw
@@ -138,6 +155,7 @@ static double curvature_bending(vsc_rod* rod, int forces) {
   for (int end = 0; end < 2; ++end) {
     if (!clamped[end]) continue;
     int a = end ? N - 2 : 0;  // edge from sample a to a + 1
+    double k = section ? k0 * section[end ? N - 1 : 0] : k0;  // the clamped end's section
     const double* t = direction[end];
     double e[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
     double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
@@ -164,11 +182,11 @@ static void elastic_sample_forces(vsc_rod* rod) {
   // tension shared by every stretch spring
   double length = spring_edges(rod, 1);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
-  spring_tensions(rod, N - 1, rod->stretch_spring, rod->rest_spacing, global_tension);
+  spring_tensions(rod, N - 1, rod->stretch_spring, rod->stretch_scale, rod->rest_spacing, global_tension);
   add_spring_forces(rod, 1, 1);  // clears the forces first
   if (rod->bend_spring > 0.0 && N > 2) {
     spring_edges(rod, 2);
-    spring_tensions(rod, N - 2, rod->bend_spring, 2.0 * rod->rest_spacing, 0.0);
+    spring_tensions(rod, N - 2, rod->bend_spring, rod->bend_scale, 2.0 * rod->rest_spacing, 0.0);
     add_spring_forces(rod, 2, 0);
   }
   curvature_bending(rod, 1);
@@ -237,14 +255,14 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
   double e = 0.0, dl = spring_edges(rod, 1) - rod->def.length;
   for (int a = 0; a + 1 < N; ++a) {
     double d = rod->edge_length[a] - rod->rest_spacing;
-    e += 0.5 * rod->stretch_spring * d * d;
+    e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
   }
   e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, 0);
   if (N > 2) {
     spring_edges(rod, 2);
     for (int a = 0; a + 2 < N; ++a) {
       double d = rod->edge_length[a] - 2.0 * rod->rest_spacing;
-      e += 0.5 * rod->bend_spring * d * d;
+      e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
     }
   }
   return e;

@@ -113,8 +113,8 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
   if (global_gradient_samples) memset(global_gradient_samples, 0, sizeof(double) * 3 * (size_t)N);
   for (int a = 0; a + 1 < N; ++a) {
-    double l = edge(rod, a, a + 1, e);
-    spring_hessian(e, l, rod->stretch_spring, rod->stretch_spring * (l - l0) + global_tension, H);
+    double l = edge(rod, a, a + 1, e), k = rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0);
+    spring_hessian(e, l, k, k * (l - l0) + global_tension, H);
     add_pair(rod, a, a + 1, H);
     if (global_gradient_samples && l > 0.0)  // dl/dp: -e/l at the first sample, +e/l at the second
       for (int c = 0; c < 3; ++c) {
@@ -124,13 +124,15 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
   }
   if (rod->bend_spring > 0.0)
     for (int a = 0; a + 2 < N; ++a) {
-      double l = edge(rod, a, a + 2, e);
-      spring_hessian(e, l, rod->bend_spring, rod->bend_spring * (l - 2.0 * l0), H);
+      double l = edge(rod, a, a + 2, e), k = rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0);
+      spring_hessian(e, l, k, k * (l - 2.0 * l0), H);
       add_pair(rod, a, a + 2, H);
     }
-  double k = rod->def.bending_rigidity / l0;
-  if (!(k > 0.0)) return global_tension;
+  double k0 = rod->def.bending_rigidity / l0;
+  if (!(k0 > 0.0)) return global_tension;
+  const double* section = rod->curvature_scale;  // NULL untapered
   for (int a = 1; a + 1 < N; ++a) {
+    double k = section ? k0 * section[a] : k0;
     double u[3], v[3], X[9], Y[9], XY[9], T[9];
     double lu = edge(rod, a - 1, a, u), lv = edge(rod, a, a + 1, v);
     if (!(lu > 0.0) || !(lv > 0.0)) continue;
@@ -158,6 +160,7 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
   for (int end = 0; end < 2; ++end) {
     if (!clamped[end]) continue;
     int a = end ? N - 2 : 0;
+    double k = section ? k0 * section[end ? N - 1 : 0] : k0;
     double l = edge(rod, a, a + 1, e), P[9];
     if (!(l > 0.0)) continue;
     unit_derivative(e, l, P);  // 2k (I - e e^T / l^2) / l^2 = 2k P P

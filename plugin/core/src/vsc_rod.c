@@ -79,6 +79,7 @@ static vsc_status validate(const vsc_rod_def* d) {
       (double)(d->control_count - 1) * (double)d->samples_per_segment + 1.0 > VSC_MAX_SAMPLES)
     return VSC_ERROR_INVALID_ARGUMENT;
   if (!(d->radius_end == 0.0 || finite_pos(d->radius_end))) return VSC_ERROR_INVALID_ARGUMENT;
+  if (!finite_nonneg(d->wall_thickness)) return VSC_ERROR_INVALID_ARGUMENT;
   if (!finite_pos(d->length) || !finite_pos(d->mass) || !finite_pos(d->radius) ||
       !finite_pos(d->contact_stiffness))
     return VSC_ERROR_INVALID_ARGUMENT;
@@ -104,6 +105,25 @@ static vsc_status validate(const vsc_rod_def* d) {
   for (int i = 0; i < d->pinned_count; ++i)
     if (d->pinned[i] < 0 || d->pinned[i] >= d->control_count) return VSC_ERROR_INVALID_ARGUMENT;
   return VSC_OK;
+}
+
+// A tapered tube's springs follow its section (vsc_rod.h): area at each
+// stretch spring's middle, second moment at each bend spring's middle sample
+// and at each sample for the curvature term, over the section at s = 0.
+static void section_scales(vsc_rod* rod) {
+  const vsc_rod_def* d = &rod->def;
+  int N = rod->sample_count;
+  double area0, moment0, area, moment;
+  vsc_tube_section(d->radius, d->wall_thickness, &area0, &moment0);
+  for (int a = 0; a < N; ++a) {
+    vsc_tube_section(vsc_rod_def_radius_at(d, (double)a / (double)(N - 1)), d->wall_thickness, &area, &moment);
+    rod->curvature_scale[a] = moment / moment0;
+    if (a >= 1 && a + 1 < N) rod->bend_scale[a - 1] = moment / moment0;
+    if (a + 1 < N) {
+      vsc_tube_section(vsc_rod_def_radius_at(d, ((double)a + 0.5) / (double)(N - 1)), d->wall_thickness, &area, &moment);
+      rod->stretch_scale[a] = area / area0;
+    }
+  }
 }
 
 // M_ij = m integral b_i b_j ds: per segment the integrand is a degree-6
@@ -221,6 +241,7 @@ enum {
   ARRAY_PINNED,          // pinned indices (at least 1)
   ARRAY_IS_PINNED,       // n bytes
   ARRAY_ASLEEP,          // n bytes, 1 byte per sphere, then 2 x n bytes
+  ARRAY_SECTION_SCALE,   // 3 N - 3 if tapered (stretch, bend, curvature factors), else none
   ARRAY_COUNT
 };
 
@@ -255,6 +276,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
   bytes[ARRAY_IS_PINNED] = n;
   bytes[ARRAY_ASLEEP] = 3.0 * n + spheres;
+  bytes[ARRAY_SECTION_SCALE] = vsc_rod_def_radius_at(def, 1.0) != def->radius ? (3.0 * N - 3.0) * d : 0.0;
 }
 
 // Offsets of the arrays in the block (bytes, aligned) and the block's size.
@@ -313,6 +335,12 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->sphere_asleep = rod->asleep + def->control_count;
   rod->moved = rod->sphere_asleep + def->collision_sphere_count;
   rod->unbalanced = rod->moved + def->control_count;
+  if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {
+    int N = (def->control_count - 1) * def->samples_per_segment + 1;
+    rod->stretch_scale = (double*)AT(ARRAY_SECTION_SCALE);
+    rod->bend_scale = rod->stretch_scale + (N - 1);
+    rod->curvature_scale = rod->bend_scale + (N - 2);
+  }
   #undef AT
   return 0;
 }
@@ -364,6 +392,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   }
   rod->radius_max = vsc_rod_def_radius_max(def);
   rod->tapered = vsc_rod_def_radius_at(def, 1.0) != def->radius;
+  if (rod->tapered) section_scales(rod);
   build_gather(rod);
   // the Jacobian couples the control points of samples up to two apart (bend
   // springs, bending angles), the mass matrix those up to three apart

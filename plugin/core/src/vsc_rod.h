@@ -24,6 +24,10 @@ struct vsc_rod {
   double rest_spacing;       ///< l0 (m)
   double stretch_spring;     ///< k_s per spring (N/m)
   double bend_spring;        ///< k_b per spring (N/m)
+  // a tapered tube's section factors (NULL untapered: every factor 1), read-only after creation
+  double* stretch_scale;     ///< A(r) / A(r0) at each stretch spring's middle (N - 1)
+  double* bend_scale;        ///< I(r) / I(r0) at each bend spring's middle sample (N - 2)
+  double* curvature_scale;   ///< I(r) / I(r0) at each sample, for the curvature term and the clamps (N)
   vsc_basis* sample_basis;   ///< basis of each sample (N)
   vsc_basis* sphere_basis;   ///< basis of each collision sphere (collision_sphere_count)
   double* mass_band;         ///< M, band layout of vsc_band.h (n x 4) (kg)

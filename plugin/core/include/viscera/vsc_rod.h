@@ -30,6 +30,12 @@
 // response does not depend on the resolution: k_s = stretch_stiffness (N-1),
 // k_b = bend_stiffness (N-1). A straight intestine pulled by its ends then has
 // the axial stiffness stretch_stiffness + 4 bend_stiffness + global_stretch_stiffness.
+// A tapered tube (radius_end) is stiffer where it is wider: the three stiffnesses
+// describe the section at s = 0 (`radius`), and each spring scales by its local
+// section (vsc_tube_section at the radius there and `wall_thickness`): a stretch
+// spring by the area A(r) / A(r0) at its middle, a bend spring and the curvature
+// term at a sample by the second moment I(r) / I(r0) there. The global length
+// term, a whole-length constraint, does not scale.
 // Forces are exact gradients, O(n), transposed to control points by virtual
 // work: a force F at abscissa s adds b_k(s) F to control point k.
 #ifndef VISCERA_VSC_ROD_H
@@ -57,7 +63,10 @@ typedef struct vsc_rod_def {
                                      ///< diagonal solve); 0: the paper's consistent band M
   double radius;                     ///< the tube's radius at s = 0, its collision spheres' there (m, > 0)
   double radius_end;                 ///< the tube's radius at s = 1 (m); 0 (default): `radius` all along.
-                                     ///< Linear in s between: spheres, contacts, mass (as radius^2) follow it
+                                     ///< Linear in s between: spheres, contacts, mass (as radius^2) and the
+                                     ///< springs (as the section, see above) follow it
+  double wall_thickness;             ///< the tube wall (m; 0, default: a solid section) by which a tapered
+                                     ///< tube's springs scale (A and I of vsc_tube_section); unused untapered
   int collision_sphere_count;        ///< spheres uniform in abscissa (>= 2)
   double contact_stiffness;          ///< penalty stiffness against geoms (N/m, > 0)
   double contact_damping;            ///< penalty damping, also tangential (N s/m, >= 0)
