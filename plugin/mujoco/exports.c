@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "caches.h"
 #include "config.h"
 #include "grasps.h"
 #include "intestine.h"
@@ -11,6 +12,10 @@
 #include "viscera/viscera.h"  // the core's whole public API: a check that the umbrella compiles
 
 #define VSC_EXPORT __attribute__((visibility("default")))
+
+/// How many times the caches' mutex was taken in this process (caches.h): for
+/// the test that a step takes no lock.
+VSC_EXPORT long viscera_cache_locks_taken(void) { return vsc_caches_locks_taken(); }
 
 /// Number of config attributes of viscera.intestine.
 VSC_EXPORT int viscera_attribute_count(void) { return vsc_plugin_attribute_count; }

@@ -14,7 +14,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "cache_registry.h"
+#include "caches.h"
 #include "geoms.h"
 #include "grasps.h"
 #include "partners.h"
@@ -41,17 +41,26 @@ typedef struct intestine {
   vsc_state_layout layout;  // plugin_state's blocks for this model and config (state_layout.h)
   double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies,
   double contact_frequency;  // computed at creation when the substeps come from the timestep
+  double substeps_timestep;  // the timestep (s) `substeps` was chosen for (0: none yet)
+  int substeps;              // substeps per step at that timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
   // contacts with the other intestine instances (partners.h): this one computes those with the
   // higher instances and hands them loads; the lower ones hand it theirs
+  // and hands them loads through its own `handed`, which they read; the lower ones hand it theirs
+  int plugin_slot;        // viscera.intestine's index in MuJoCo's plugin table (which instances are intestines)
   int partners_known;     // 1: the partners were looked up (at this data's first step)
   int partner_count;      // higher instances it collides with
   int* partners;          // their instance ids
   int partner_geoms;      // their capsules, in all
+  int partner_spheres;    // the most spheres any of them has
+  double* partner_centres;     // a partner's sphere centres (m) and velocities (m/s) at the step start,
+  double* partner_velocities;  // 3 per sphere each (its rod is read, never written)
   vsc_geom* all_geoms;    // MuJoCo's candidate geoms, then the partners' capsules
   double* all_wrench;     // the reaction on each of them, averaged over a step (6 each)
-  double* load;           // loads the lower instances handed over this step (3 per control point, N)
-  int loaded;             // 1: load holds something
+  int* handed_offset;     // per instance of the model: where this step's loads for it start in `handed` (-1: none)
+  double* handed;         // the loads this step handed each higher partner (3 per control point of each, N)
+  unsigned char* handed_any;  // per instance of the model: 1 if `handed` holds its loads this step
+  double* load;           // the loads several lower instances handed over this step, summed (3 per point, N)
 } intestine;
 
 static void intestine_free(intestine* it) {
@@ -62,6 +71,11 @@ static void intestine_free(intestine* it) {
   free(it->initial_q);
   free(it->geom_wrench);
   free(it->partners);
+  free(it->partner_centres);
+  free(it->partner_velocities);
+  free(it->handed_offset);
+  free(it->handed);
+  free(it->handed_any);
   free(it->all_geoms);
   free(it->all_wrench);
   free(it->load);
@@ -82,6 +96,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     return NULL;
   }
   it->model = m;
+  it->plugin_slot = -1;
+  mjp_getPlugin("viscera.intestine", &it->plugin_slot);
   int n = it->config.rod.control_count;
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
@@ -91,7 +107,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     intestine_free(it);
     return NULL;
   }
-  if (vsc_plugin_config_layout(&it->config, it->initial_q, error, ERROR_SIZE) ||
+  if (vsc_plugin_config_check_timestep(&it->config, m->opt.timestep, error, ERROR_SIZE) ||
+      vsc_plugin_config_layout(&it->config, it->initial_q, error, ERROR_SIZE) ||
       vsc_plugin_config_clamp(&it->config, it->initial_q, error, ERROR_SIZE)) {
     intestine_free(it);
     return NULL;
@@ -142,14 +159,13 @@ static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, 
     intestine_free(it);
     return NULL;
   }
-  void* replaced = vsc_registry_insert(d, instance, it);
-  if (replaced == it) {  // registry out of memory
+  void* replaced = vsc_caches_install(d, instance, it);
+  if (replaced == it) {  // out of memory
     intestine_free(it);
     strcpy(error, "viscera.intestine: out of memory");
     return NULL;
   }
   intestine_free((intestine*)replaced);
-  d->plugin_data[instance] = (uintptr_t)it;  // informative only
   return it;
 }
 
@@ -174,12 +190,14 @@ int vsc_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* e
   return -1;
 }
 
-// The caches of this data, from the registry (never from d->plugin_data, which
-// a pickled copy shares with its original), built on first use by a copy and
-// rebuilt if the data is stepped with another model (multi-model rollouts).
-// NULL only if building fails.
+// The caches of this data, through its plugin_data (caches.h), lock-free; a
+// pickled copy finds its own at its first step (its plugin_data names its
+// original's), and they are rebuilt if the data is stepped with another model
+// (multi-model rollouts). NULL only if building fails.
 static intestine* caches(const mjModel* m, mjData* d, int instance) {
-  intestine* it = (intestine*)vsc_registry_find(d, instance);
+  intestine* it = (intestine*)vsc_caches_resolve(d, instance);
+  if (it && it->model == m) return it;
+  if (!it) it = (intestine*)vsc_caches_adopt(d, instance);
   return it && it->model == m ? it : install(m, d, instance);
 }
 
@@ -228,22 +246,14 @@ static int check_sensors(const mjModel* m, int instance) {
   return 0;
 }
 
+// The state's size. A config that cannot be read gets none here, and init
+// refuses it with its message: no mju_error (it aborts a C host), nothing to leak.
 static int intestine_nstate(const mjModel* m, int instance) {
-  // Validate here: an error in nstate fails model compilation with our message.
   vsc_plugin_config config;
   char error[ERROR_SIZE];
-  if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) mju_error("%s", error);
-  if (vsc_plugin_config_check_timestep(&config, m->opt.timestep, error, ERROR_SIZE)) {
-    vsc_plugin_config_free(&config);
-    mju_error("%s", error);
-  }
-  int n = config.rod.control_count;
-  double* q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
-  int failed = !q || vsc_plugin_config_layout(&config, q, error, ERROR_SIZE);
+  if (vsc_plugin_config_read(m, instance, &config, error, ERROR_SIZE)) return 0;
   int size = config_state_size(m, &config);
-  free(q);
   vsc_plugin_config_free(&config);
-  if (failed) mju_error("%s", error);
   return size;
 }
 
@@ -256,8 +266,18 @@ static int intestine_init(const mjModel* m, mjData* d, int instance) {
 }
 
 static void intestine_destroy(mjData* d, int instance) {
-  intestine_free((intestine*)vsc_registry_remove(d, instance));
-  d->plugin_data[instance] = 0;
+  intestine_free((intestine*)vsc_caches_release(d, instance));
+}
+
+// mj_copyData keeps dest's own caches (its plugin_data) and copies the state;
+// dest also takes what src's caches record of its history, so that a copy
+// neither warns again nor runs the start's check again.
+static void intestine_copy(mjData* dest, const mjModel* m, const mjData* src, int instance) {
+  const intestine* from = (const intestine*)vsc_caches_resolve(src, instance);
+  intestine* to = caches(m, dest, instance);
+  if (!from || !to || from->model != m) return;
+  to->warned_passive_off = from->warned_passive_off;
+  to->checked_start = from->checked_start;
 }
 
 typedef struct reset_request {
@@ -266,7 +286,7 @@ typedef struct reset_request {
   int done;
 } reset_request;
 
-// Under the registry's lock (the cache cannot be freed meanwhile): the config
+// Under the caches' mutex (the cache cannot be freed meanwhile): the config
 // read when the cache was built, and the initial shape laid out then.
 static void reset_from_cache(void* cache, void* context) {
   intestine* it = (intestine*)cache;
@@ -276,13 +296,13 @@ static void reset_from_cache(void* cache, void* context) {
   request->done = 1;
 }
 
-// plugin_data is used only if the registry holds it as this instance's live
-// cache for this model: a pickled copy may carry a pointer it shares with its
-// original (the same model: the same initial state) or one from another
-// process. Otherwise the config is read again.
+// plugin_data is used only if it names a live cache of this instance for this
+// model, whichever data owns it: a pickled copy may carry its original's handle
+// (the same model: the same initial state) or one from another process (caches.h).
+// Otherwise the config is read again.
 static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
   reset_request request = {m, plugin_state, 0};
-  if (plugin_data) vsc_registry_visit(plugin_data, instance, reset_from_cache, &request);
+  if (plugin_data) vsc_caches_visit((uintptr_t)plugin_data, instance, reset_from_cache, &request);
   if (request.done) return;
   vsc_plugin_config config;
   char error[ERROR_SIZE];
@@ -311,7 +331,7 @@ static void copy_skin(void* cache, void* context) {
 
 int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count) {
   skin_request request = {m, skin, control_count, 0};
-  if (d) vsc_registry_with(d, instance, copy_skin, &request);
+  if (d) vsc_caches_with(d, instance, copy_skin, &request);
   return request.found;
 }
 
@@ -331,7 +351,7 @@ static void copy_grasp(void* cache, void* context) {
 
 int vsc_intestine_grasper_config(const mjModel* m, const mjData* d, int instance, vsc_grasper_config* grasp) {
   grasp_request request = {m, grasp, 0};
-  if (d) vsc_registry_with(d, instance, copy_grasp, &request);
+  if (d) vsc_caches_with(d, instance, copy_grasp, &request);
   return request.found;
 }
 
@@ -402,12 +422,16 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
 }
 
 // Substeps per step: the config's, or else the fewest the rod's stability
-// estimate allows at the model's timestep (which may change between steps).
-// The estimate is taken at the initial shape, from the model alone, so every
-// copy of a data chooses alike.
+// estimate allows at the model's timestep, chosen again only when the timestep
+// changes. The estimate is taken at the initial shape, from the model alone, so
+// every copy of a data chooses alike.
 static int step_substeps(const mjModel* m, intestine* it) {
-  return vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency,
-                                    vsc_rod_contact_damping_rate(it->rod), m->opt.timestep);
+  if (it->substeps_timestep != m->opt.timestep) {
+    it->substeps = vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency,
+                                              vsc_rod_contact_damping_rate(it->rod), m->opt.timestep);
+    it->substeps_timestep = m->opt.timestep;
+  }
+  return it->substeps;
 }
 
 // A state that is not finite anywhere (a bad mj_setState, say) starts over
@@ -451,27 +475,37 @@ static int excludes(const intestine* it, int other) {
 }
 
 // The higher intestine instances this one collides with (not excluded by
-// either's 'exclude'), and room for their capsules: looked up once per data, at
-// its first step, when every instance's config can be read. 0, or -1 if memory
-// ran out (then it has none).
+// either's 'exclude'), and room for their capsules and for the loads it hands
+// them: looked up once per data, at its first step, when every instance's
+// config can be read. 0, or -1 if memory ran out (then it has none).
 static int find_partners(const mjModel* m, mjData* d, intestine* it, int instance) {
   it->partners_known = 1;
-  int slot = -1;
-  mjp_getPlugin("viscera.intestine", &slot);
-  it->partners = (int*)malloc(sizeof(int) * (size_t)(m->nplugin > 0 ? m->nplugin : 1));
-  if (!it->partners) return -1;
-  for (int j = instance + 1; j < m->nplugin; ++j) {
-    if (m->plugin[j] != slot) continue;
+  int instances = m->nplugin > 0 ? m->nplugin : 1;
+  it->partners = (int*)malloc(sizeof(int) * (size_t)instances);
+  it->handed_offset = (int*)malloc(sizeof(int) * (size_t)instances);
+  it->handed_any = (unsigned char*)calloc((size_t)instances, 1);
+  if (!it->partners || !it->handed_offset || !it->handed_any) return -1;
+  size_t handed = 0;
+  for (int j = 0; j < m->nplugin; ++j) {
+    it->handed_offset[j] = -1;
+    if (j <= instance || m->plugin[j] != it->plugin_slot) continue;
     intestine* other = caches(m, d, j);
     if (!other || excludes(it, j) || excludes(other, instance)) continue;
+    int spheres = other->config.rod.collision_sphere_count;
     it->partners[it->partner_count++] = j;
-    it->partner_geoms += other->config.rod.collision_sphere_count - 1;
+    it->partner_geoms += spheres - 1;
+    it->partner_spheres = spheres > it->partner_spheres ? spheres : it->partner_spheres;
+    it->handed_offset[j] = (int)handed;
+    handed += 3 * (size_t)other->config.rod.control_count;
   }
   if (it->partner_count == 0) return 0;
   size_t total = (size_t)it->world.count + (size_t)it->partner_geoms;
   it->all_geoms = (vsc_geom*)calloc(total, sizeof(vsc_geom));
   it->all_wrench = (double*)calloc(6 * total, sizeof(double));
-  if (!it->all_geoms || !it->all_wrench) {
+  it->partner_centres = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
+  it->partner_velocities = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
+  it->handed = (double*)calloc(handed, sizeof(double));
+  if (!it->all_geoms || !it->all_wrench || !it->partner_centres || !it->partner_velocities || !it->handed) {
     it->partner_count = it->partner_geoms = 0;
     return -1;
   }
@@ -480,24 +514,48 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
 
 // The partners' tubes as capsules after MuJoCo's geoms, at the step start (their
 // states are still the step start's: lower instances advance first and only
-// hand over loads). Returns the geoms in all, or MuJoCo's count alone if a
-// partner's caches cannot be had.
+// hand over loads), placed from their states into this instance's own buffers.
+// Returns the geoms in all, or MuJoCo's count alone if a partner's caches
+// cannot be had.
 static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
   memcpy(it->all_geoms, it->world.geoms, sizeof(vsc_geom) * (size_t)it->world.count);
   int g = it->world.count;
   for (int p = 0; p < it->partner_count; ++p) {
     int j = it->partners[p];
-    intestine* other = caches(m, d, j);
+    const intestine* other = caches(m, d, j);
     if (!other) return it->world.count;
     const mjtNum* s = d->plugin_state + m->plugin_stateadr[j];
-    vsc_rod_update_spheres(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
-                           s + other->layout.offset[VSC_STATE_VELOCITIES]);
+    vsc_rod_sphere_points(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
+                          s + other->layout.offset[VSC_STATE_VELOCITIES], it->partner_centres, it->partner_velocities);
     double friction = fmax(it->config.rod.self_friction, other->config.rod.self_friction);  // as a geom pair's
-    vsc_partner_capsules(other->rod, other->config.rod.collision_sphere_count, friction, 0.5 * m->opt.timestep,
-                         it->all_geoms + g);
-    g += other->config.rod.collision_sphere_count - 1;
+    int spheres = other->config.rod.collision_sphere_count;
+    vsc_partner_capsules(other->rod, it->partner_centres, it->partner_velocities, spheres, friction,
+                         0.5 * m->opt.timestep, it->all_geoms + g);
+    g += spheres - 1;
   }
   return g;
+}
+
+// The loads the lower instances handed this one this step (they advanced
+// first), read from their own buffers: one's as it is, several summed in
+// instance order into `load`. NULL if none did.
+static const double* received_load(const mjModel* m, const mjData* d, intestine* it, int instance) {
+  const double* received = NULL;
+  int senders = 0, size = 3 * it->config.rod.control_count;
+  for (int i = 0; i < instance; ++i) {
+    if (m->plugin[i] != it->plugin_slot) continue;
+    const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
+    if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
+    const double* part = lower->handed + lower->handed_offset[instance];
+    if (++senders == 1) {
+      received = part;
+      continue;
+    }
+    if (senders == 2) memcpy(it->load, received, sizeof(double) * (size_t)size);
+    for (int k = 0; k < size; ++k) it->load[k] += part[k];
+    received = it->load;
+  }
+  return received;
 }
 
 // Gather: MuJoCo's side of the step, as the core's world. Gravity, the geoms'
@@ -526,13 +584,14 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
     world.geom_wrench = it->all_wrench;
   }
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
-  if (it->loaded) {  // a load wakes the points it lies on, as a geom pressing them would
+  const double* load = received_load(m, d, it, instance);
+  if (load) {  // a load wakes the points it lies on, as a geom pressing them would
     const double* q = state + l.offset[VSC_STATE_POSITIONS];
     for (int k = 0; k < it->config.rod.control_count; ++k) {
-      const double* f = it->load + 3 * k;
+      const double* f = load + 3 * k;
       if (f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0) vsc_rest_wake(k, q, state + l.offset[VSC_STATE_REST]);
     }
-    world.control_load = it->load;
+    world.control_load = load;
   }
   world.grasps = it->holds.grasps;
   world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state,
@@ -571,11 +630,14 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
   if (world->geom_count <= it->world.count) return;  // no partner this step
   int g = it->world.count;
   for (int p = 0; p < it->partner_count; ++p) {
-    intestine* other = caches(m, d, it->partners[p]);
+    int j = it->partners[p];
+    const intestine* other = caches(m, d, j);
     if (!other) return;  // (its capsules were added this step, so its caches exist)
     int spheres = other->config.rod.collision_sphere_count;
-    vsc_partner_add_load(other->rod, spheres, world->geoms + g, world->geom_wrench + 6 * g, other->load);
-    other->loaded = 1;
+    double* handed = it->handed + it->handed_offset[j];
+    memset(handed, 0, sizeof(double) * 3 * (size_t)other->config.rod.control_count);
+    vsc_partner_add_load(other->rod, spheres, world->geoms + g, world->geom_wrench + 6 * g, handed);
+    it->handed_any[j] = 1;
     g += spheres - 1;
   }
 }
@@ -599,11 +661,9 @@ static void count_trouble(const mjData* d, intestine* it, mjtNum* state, vsc_sta
   }
 }
 
-// The lower instances' loads last one step: felt, they are cleared.
-static void consume_load(intestine* it) {
-  if (!it->loaded) return;
-  memset(it->load, 0, sizeof(double) * 3 * (size_t)it->config.rod.control_count);
-  it->loaded = 0;
+// The loads handed over last step were felt: none yet this step.
+static void clear_handed(const mjModel* m, intestine* it) {
+  if (it->handed_any) memset(it->handed_any, 0, (size_t)(m->nplugin > 0 ? m->nplugin : 1));
 }
 
 // One MuJoCo step of the rod, top to bottom: gather MuJoCo's side into the
@@ -613,10 +673,8 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (restart_if_not_finite(m, it, instance, state)) {
-    consume_load(it);
-    return;
-  }
+  clear_handed(m, it);
+  if (restart_if_not_finite(m, it, instance, state)) return;
   const vsc_state_layout l = it->layout;
   vsc_world world = gather(m, d, it, state, instance);
   vsc_step_options step = it->config.step;
@@ -626,7 +684,6 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
                                    state + l.offset[VSC_STATE_REST], m->opt.timestep, &step, &report);
   scatter(m, d, it, &world, state);
-  consume_load(it);
   count_trouble(d, it, state, status, &report, step.substeps);
 }
 
@@ -712,6 +769,7 @@ void vsc_plugin_register_intestine(void) {
   plugin.nstate = intestine_nstate;
   plugin.init = intestine_init;
   plugin.destroy = intestine_destroy;
+  plugin.copy = intestine_copy;
   plugin.reset = intestine_reset;
   plugin.compute = intestine_compute;
   plugin.advance = intestine_advance;

@@ -16,13 +16,13 @@
 void vsc_plugin_register_intestine(void);
 
 /// The skin definition and control point count of intestine `instance` as
-/// data `d`'s caches read them for model `m`, copied under the registry's lock
+/// data `d`'s caches read them for model `m`, copied under the caches' mutex
 /// (so another thread freeing the caches cannot pull them away). Returns 1, or
 /// 0 if d has no caches for m (nothing written).
 int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count);
 
 /// The graspers' config of intestine `instance` as data `d`'s caches read it
-/// for model `m`, copied under the registry's lock (no config text parsed).
+/// for model `m`, copied under the caches' mutex (no config text parsed).
 /// Returns 1, or 0 if d has no caches for m (nothing written).
 int vsc_intestine_grasper_config(const mjModel* m, const mjData* d, int instance, vsc_grasper_config* grasp);
 

@@ -23,8 +23,9 @@ static void frame_along(const double z[3], double rotation[9]) {
   }
 }
 
-void vsc_partner_capsules(const vsc_rod* rod, int spheres, double friction, double ahead, vsc_geom* out) {
-  const double *x = vsc_rod_sphere_centres(rod), *v = vsc_rod_sphere_velocities(rod);
+void vsc_partner_capsules(const vsc_rod* rod, const double* centres, const double* velocities, int spheres,
+                          double friction, double ahead, vsc_geom* out) {
+  const double *x = centres, *v = velocities;
   const double* radii = vsc_rod_sphere_radii(rod);
   for (int k = 0; k + 1 < spheres; ++k) {
     double radius = 0.5 * (radii[k] + radii[k + 1]);  // a tapered tube's: its mean over the capsule

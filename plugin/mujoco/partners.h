@@ -12,15 +12,17 @@
 #include "viscera/vsc_geom.h"
 #include "viscera/vsc_rod.h"
 
-/// The capsules along `rod`'s placed spheres (vsc_rod_update_spheres with
-/// velocities; `spheres` of them): spheres - 1 capsules into `out`, each of the
+/// The capsules along another rod's spheres, at `centres` (m) moving at
+/// `velocities` (m/s; 3 per sphere each, vsc_rod_sphere_points) with `rod`'s
+/// radii: spheres - 1 capsules into `out`, each of the
 /// mean radius of its two spheres (m) and Coulomb coefficient `friction`, each moving rigidly with its two
 /// spheres (the velocity of its middle, the spin of its axis). Each sphere is
 /// placed `ahead` seconds along its velocity: the core holds a geom still over
 /// a step, and a partner held where it will be at mid-step (ahead = dt / 2)
 /// meets the rod where it moves to, not where it was (a tube falling at 2 m/s
 /// moves 4 mm, a third of its radius, in a 2 ms step).
-void vsc_partner_capsules(const vsc_rod* rod, int spheres, double friction, double ahead, vsc_geom* out);
+void vsc_partner_capsules(const vsc_rod* rod, const double* centres, const double* velocities, int spheres,
+                          double friction, double ahead, vsc_geom* out);
 
 /// Add the reactions on those capsules (`wrench`: 6 per capsule, force N and
 /// torque N m about its middle, averaged over a step; vsc_world.geom_wrench)

@@ -83,6 +83,8 @@ def load() -> pathlib.Path:
             _ctypes_library.viscera_grasp_pinches.restype = ctypes.c_int
             _ctypes_library.viscera_grasp_pinches.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
                                                               ctypes.c_void_p, ctypes.c_int]
+            _ctypes_library.viscera_cache_locks_taken.restype = ctypes.c_long
+            _ctypes_library.viscera_cache_locks_taken.argtypes = []
             _ctypes_library.viscera_damage_colours.restype = None
             _ctypes_library.viscera_damage_colours.argtypes = [ctypes.c_void_p]
             _ctypes_library.viscera_grid_under_axis.restype = ctypes.c_int

@@ -436,11 +436,20 @@ def unknown_key_message(key: str) -> str:
 _MUJOCO_UNKNOWN_KEY = re.compile(r"unrecognized attribute 'plugin:([^']*)' for plugin " + re.escape(PLUGIN_NAME) + "'?")
 
 
+# the plugin refuses a config in its init with a warning: MuJoCo then raises its own line above ours
+_MUJOCO_INIT_FAILED = re.compile(r"^(?:Error: )?engine error: plugin->init failed for plugin id \d+\n")
+
+
 def load_error_message(message: object) -> str:
     """A model-loading error message with MuJoCo's wording for a misspelled intestine config
-    key replaced by unknown_key_message (naming the key, suggesting the nearest); any other
-    message comes back unchanged."""
-    return _MUJOCO_UNKNOWN_KEY.sub(lambda match: unknown_key_message(match.group(1)), str(message))
+    key replaced by unknown_key_message (naming the key, suggesting the nearest), and a config
+    the plugin refused as the plugin's own message (once; MuJoCo's "plugin->init failed" line
+    above it dropped); any other message comes back unchanged."""
+    text = _MUJOCO_UNKNOWN_KEY.sub(lambda match: unknown_key_message(match.group(1)), str(message))
+    if _MUJOCO_INIT_FAILED.match(text):
+        lines = _MUJOCO_INIT_FAILED.sub("", text).splitlines()
+        text = "\n".join(dict.fromkeys(line for line in lines if line.strip()))  # each line once, in order
+    return text
 
 
 def config_strings(**config: Any) -> dict[str, str]:

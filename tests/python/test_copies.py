@@ -78,6 +78,45 @@ CASES = {
         for twin in twins:
             twin.step()
     """,
+    "steps_take_no_lock": """
+        from viscera import _library
+        locks = _library.native().viscera_cache_locks_taken
+        c = pickle.loads(pickle.dumps(d))
+        step(c, 1)  # a pickled copy's first step finds its own caches (under the lock, once)
+        datas = [mujoco.MjData(m) for _ in range(4)]
+        before = locks()
+        step(d, 100); step(c, 100)
+        mujoco.mj_forward(m, d)
+        state = np.zeros((4, mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)))
+        for i, data in enumerate(datas):
+            mujoco.mj_getState(m, data, state[i], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        from mujoco import rollout
+        rollout.rollout(m, datas, state, nstep=50)  # on four threads
+        assert locks() == before, (before, locks())
+        copy_target = mujoco.MjData(m)
+        taken = locks()
+        mujoco.mj_copyData(copy_target, m, d)  # the copy callback reads both datas' caches lock-free
+        step(copy_target, 10)
+        assert locks() == taken
+    """,
+    "a_copy_does_not_warn_again": """
+        messages = []
+        mujoco.set_mju_user_warning(messages.append)
+        inside = '<mujoco><worldbody><geom type="plane" size="2 2 .1"/></worldbody>' + viscera.extension_xml(
+            'g', length=1, control_points=20, shape='line', start=[0, 0, 0.003]) + '</mujoco>'
+        mi = mujoco.MjModel.from_xml_string(inside)
+        di = mujoco.MjData(mi)
+        mujoco.mj_step(mi, di)
+        assert sum("starts inside geom" in text for text in messages) == 1, messages
+        twin = mujoco.MjData(mi)
+        mujoco.mj_copyData(twin, mi, di)
+        for _ in range(3): mujoco.mj_step(mi, twin)
+        assert sum("starts inside geom" in text for text in messages) == 1, messages
+        fresh = mujoco.MjData(mi)
+        mujoco.mj_step(mi, fresh)  # a new data checks its own start
+        assert sum("starts inside geom" in text for text in messages) == 2, messages
+        mujoco.set_mju_user_warning(None)
+    """,
 }
 
 

@@ -14,12 +14,16 @@ void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
   }
 }
 
-void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
+void vsc_rod_sphere_points(const vsc_rod* rod, const double* q, const double* v, double* centres, double* velocities) {
   int spheres = rod->def.collision_sphere_count;
   for (int i = 0; i < spheres; ++i) {
-    vsc_basis_point(&rod->sphere_basis[i], q, rod->sphere_xyz + 3 * i);
-    if (v) vsc_basis_point(&rod->sphere_basis[i], v, rod->sphere_velocity + 3 * i);
+    vsc_basis_point(&rod->sphere_basis[i], q, centres + 3 * i);
+    if (v) vsc_basis_point(&rod->sphere_basis[i], v, velocities + 3 * i);
   }
+}
+
+void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
+  vsc_rod_sphere_points(rod, q, v, rod->sphere_xyz, rod->sphere_velocity);
 }
 
 void vsc_rod_add_sphere_force(const vsc_rod* rod, int sphere, const double f[3], double* Q) {

@@ -608,6 +608,10 @@ class BowelTask(base.Task):
             return
         axis = physics.dense_axis()
         radius = physics.intestine().radius
+        # every intestine of the scene, each with its widest radius, keeps the tools clear (the
+        # anatomical abdomen's colon lies over the small bowel's edges)
+        tubes = [(gut.axis_points(data, 4 * gut.sphere_count), max(gut.radius, gut.radius_end))
+                 for gut in viscera.intestines(model)]
         index = physics.tool_index()
         eye, frame = data.cam_xpos[camera].copy(), data.cam_xmat[camera].reshape(3, 3).copy()
         half = math.tan(math.radians(float(model.cam_fovy[camera])) / 2.0)
@@ -619,7 +623,9 @@ class BowelTask(base.Task):
             for (u, v), clearance in itertools.product(READY_IMAGE_POINTS, (READY_CLEARANCE_M, READY_CLEARANCE_M / 2)):
                 ray = (frame * np.array([side * u * half, v * half, -1.0])).sum(axis=1)
                 ray /= math.sqrt(float((ray * ray).sum()))
-                point = spot_on_ray(eye, ray, axis, radius + clearance)
+                spots = [spot_on_ray(eye, ray, tube, tube_radius + clearance) for tube, tube_radius in tubes]
+                point = None if any(spot is None for spot in spots) else min(
+                    spots, key=lambda spot: float(((spot - eye) ** 2).sum()))
                 if point is None or any(float(((point - other) ** 2).sum()) < READY_APART_M ** 2 for other in taken):
                     continue
                 pose = tool_pose(trocar, point, offset)

@@ -13,6 +13,12 @@ void vsc_rod_update_samples(vsc_rod* rod, const double* q);
 /// be NULL: velocities are then left untouched); read them with vsc_rod_sphere_centres.
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
 
+/// The collision spheres' centres (m) and velocities (m/s) at q and v into
+/// `centres` and `velocities` (3 per sphere, caller-owned), leaving the rod
+/// untouched: what another rod's host reads of this one (the same bits as
+/// vsc_rod_update_spheres).
+void vsc_rod_sphere_points(const vsc_rod* rod, const double* q, const double* v, double* centres, double* velocities);
+
 /// Q += the force f (N) acting at collision sphere `sphere`, as generalized
 /// forces on the control points (3 per point, N): the spline's weights at the
 /// sphere's abscissa, as the contact pass spreads its forces.
