@@ -30,6 +30,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   mjData* d = mj_makeData(m);
+  if (!d) {  // a plugin's init refused (its warning above says why)
+    fprintf(stderr, "cannot load %s: a plugin refused to initialise\n", argv[2]);
+    mj_deleteModel(m);
+    return 2;
+  }
   int steps = atoi(argv[3]);
   for (int t = 0; t < steps; ++t) {
     for (int a = 0; a < m->nu; ++a) {

@@ -135,3 +135,46 @@ def test_valgrind_memcheck_on_the_scene_step_loop_is_clean(release):
         assert "ERROR SUMMARY: 0 errors" in output
         assert f"{steps} steps" in result.stdout
     assert heap_allocations(outputs[300]) == heap_allocations(outputs[100])
+
+
+# A value each kind of config key refuses (viscera.attribute_docs()[key]["kind"]).
+BAD_VALUES = {"positive": ["-1", "0", "nan"], "nonnegative": ["-1", "inf"], "count": ["0", "-3", "2.5"],
+              "vector": ["x", "1 2 nan"], "choice": ["nonsense"], "taper": ["0", "0.01 0.02 0.03"],
+              "real": ["nan"], "custom": ["x y z"]}
+
+
+def bad_configurations() -> dict[str, tuple[str, str | None]]:
+    """A minimal scene per key and bad value (the key set to it, the rest default), and the fuzz
+    corpus's inputs: name -> (MJCF text, the key a refusal must name, or None)."""
+    import viscera
+    scenes = {}
+    for key, row in viscera.attribute_docs().items():
+        for i, value in enumerate(BAD_VALUES[row["kind"]]):
+            scenes[f"{key}_{i}"] = (
+                '<mujoco><worldbody><geom type="plane" size="1 1 .1"/><body name="tool"><geom size=".01"/>'
+                '<site name="tip"/><joint name="jaw" type="slide"/></body></worldbody><extension>'
+                '<plugin plugin="viscera.intestine"><instance name="g">'
+                + ('' if key == "length" else '<config key="length" value="0.5"/>')
+                + f'<config key="{key}" value="{value}"/></instance></plugin></extension></mujoco>', key)
+    for path in sorted((ROOT / "tests" / "python" / "fuzz_corpus").glob("*.xml")):
+        scenes[path.stem] = (path.read_text(), None)
+    return scenes
+
+
+@needs_toolchain
+def test_every_bad_configuration_is_refused_at_load_from_c_never_aborted(release, tmp_path):
+    """No user input reaches mju_error, whose default handler exits a C host: each key set to a
+    value its kind refuses, and every input of the fuzz corpus, loaded by a C program with
+    MuJoCo's default handlers, either loads and steps (exit 0) or is refused at load with a
+    message that names the attribute (exit 2)."""
+    refused = 0
+    for name, (xml, key) in bad_configurations().items():
+        scene = tmp_path / f"{name}.xml"
+        scene.write_text(xml)
+        result = run([release / "viscera_scene_steps", release / "libviscera_plugin.so", scene, 20], timeout=120)
+        output = result.stdout + result.stderr
+        assert result.returncode in (0, 2), f"{name}: exit {result.returncode}\n{output[-2000:]}"
+        if result.returncode == 2:
+            refused += 1
+            assert "cannot load" in output and (key is None or f"'{key}'" in output), f"{name}: {output[-2000:]}"
+    assert refused >= 60  # most of the bad values are refused, not quietly taken
