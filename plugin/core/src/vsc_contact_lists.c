@@ -19,7 +19,7 @@
 
 double vsc_contact_lists_memory_bytes(int spheres) {
   return sizeof(vsc_contact_lists) +
-         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + GEOM_PAIRS_PER_SPHERE) +
+         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + 2.0 * GEOM_PAIRS_PER_SPHERE) +
                             18.0 * sizeof(double));
 }
 
@@ -33,11 +33,14 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->self_distance = (double*)malloc(sizeof(double) * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
   l->geom_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
+  l->merged_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
+  l->merged_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
   l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
-  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->sphere_xyz ||
+  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->merged_pairs ||
+      !l->merged_distance || !l->sphere_xyz ||
       !l->geom_sphere_xyz || !l->segment || !l->moved) {
     vsc_contact_lists_destroy(l);
     return NULL;
@@ -54,6 +57,9 @@ void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   free(l->self_distance);
   free(l->geom_pairs);
   free(l->geom_distance);
+  free(l->merged_pairs);
+  free(l->merged_distance);
+  free(l->geom_stale);
   free(l->sphere_xyz);
   free(l->geom_sphere_xyz);
   free(l->segment);
@@ -153,6 +159,70 @@ static void collect_geom(void* context, int i) {
   l->geom_pairs[2 * l->geom_count + 1] = i;
   l->geom_distance[l->geom_count] = distance;
   ++l->geom_count;
+}
+
+// One geom's pairs rebuilt alone (a partial rebuild), into merged_*: the spheres in reach at
+// their current places, each reach widened by what the sphere moved since the snapshot
+// (geom_moved), and each distance stored less it. A pair left out was farther than
+// r + m + moved(snapshot -> now) away; until the next whole build no sphere moves past half
+// the margin from the snapshot (so at most moved(snapshot -> now) + m / 2 from now) and this
+// geom moves less than m / 2 from here: it stays beyond r. The same bound keeps the skip filter
+// of a stored distance less the sphere's motion since the snapshot valid.
+static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int count) {
+  vsc_contact_lists* l = rod->lists;
+  const vsc_geom* geom = &world->geoms[g];
+  int spheres = rod->def.collision_sphere_count;
+  double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, reach = r + margin;
+  for (int i = 0; i < spheres; ++i) {
+    const double* x = rod->sphere_xyz + 3 * i;
+    double widened = reach + l->geom_moved[i];
+    if (geom->bound_radius > 0.0) {  // the box test of a whole build, widened alike
+      double w = r + 0.5 * margin + l->geom_moved[i];
+      if (x[0] + w < geom->box[0] - 0.5 * margin || x[0] - w > geom->box[3] + 0.5 * margin ||
+          x[1] + w < geom->box[1] - 0.5 * margin || x[1] - w > geom->box[4] + 0.5 * margin ||
+          x[2] + w < geom->box[2] - 0.5 * margin || x[2] - w > geom->box[5] + 0.5 * margin)
+        continue;
+    }
+    double distance = filter_distance(geom, x);
+    if (distance > widened) continue;
+    if (count >= l->geom_capacity) return -1;
+    l->merged_pairs[2 * count] = g;
+    l->merged_pairs[2 * count + 1] = i;
+    l->merged_distance[count] = distance - l->geom_moved[i];
+    ++count;
+  }
+  return count;
+}
+
+// Rebuild the stale geoms' pairs alone (geom_stale), keeping every other geom's, in the
+// list's order (geom, then sphere): what a whole build would test, found in the same
+// order. Returns 0 if the list overflowed.
+static int rebuild_stale_geoms(vsc_rod* rod, const vsc_world* world) {
+  vsc_contact_lists* l = rod->lists;
+  int count = 0, k = 0;
+  for (int g = 0; g < world->geom_count; ++g) {
+    int first = k;
+    while (k < l->geom_count && l->geom_pairs[2 * k] == g) ++k;
+    if (l->geom_stale[g]) {
+      count = collect_geom_alone(rod, world, g, count);
+      if (count < 0) return 0;
+      double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
+      memcpy(pose, world->geoms[g].position, sizeof(double) * 3);
+      memcpy(pose + 3, world->geoms[g].rotation, sizeof(double) * 9);
+      memcpy(pose + 12, world->geoms[g].size, sizeof(double) * 3);
+      l->geom_pose[VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity + g] = 0.0;  // its shift: none since
+      continue;
+    }
+    memcpy(l->merged_pairs + 2 * count, l->geom_pairs + 2 * first, sizeof(int) * 2 * (size_t)(k - first));
+    memcpy(l->merged_distance + count, l->geom_distance + first, sizeof(double) * (size_t)(k - first));
+    count += k - first;
+  }
+  int* pairs = l->geom_pairs;
+  double* distance = l->geom_distance;
+  l->geom_pairs = l->merged_pairs, l->geom_distance = l->merged_distance;
+  l->merged_pairs = pairs, l->merged_distance = distance;
+  l->geom_count = count;
+  return 1;
 }
 
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
@@ -299,6 +369,9 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
     double* poses = (double*)realloc(l->geom_pose, sizeof(double) * (VSC_GEOM_POSE_SIZE + 1) * (size_t)world->geom_count);
     if (!poses) return 0;
     l->geom_pose = poses;
+    unsigned char* stale = (unsigned char*)realloc(l->geom_stale, (size_t)world->geom_count);
+    if (!stale) return 0;
+    l->geom_stale = stale;
     l->built_geom_capacity = world->geom_count;
   }
   for (int g = 0; g < world->geom_count; ++g) {
@@ -344,14 +417,21 @@ static int self_valid(const vsc_rod* rod) {
   return 1;
 }
 
-// The geom pairs still hold every possible contact while no sphere and no geom
-// moved by half the margin since they were built. Writes each geom's surface
-// motion bound after the poses.
+// Whole geom builds kept while a few geoms move: past this share of the geoms
+// stale at once, a whole build costs no more than rebuilding them alone.
+#define STALE_GEOMS_SHARE 0.25
+
+// The geom pairs still hold every possible contact while no sphere moved by
+// half the margin since the last whole build, nor any geom since its own
+// build. Writes each geom's surface motion bound after the poses, and marks
+// the geoms past it stale (geom_stale). Returns 1 if none is, 2 if a few are
+// (rebuild those alone: rebuild_stale_geoms), 0 if a whole build is due.
 static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
   if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
+  int stale = 0;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
     double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
@@ -363,21 +443,28 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
     if (geom->bound_radius > 0.0) {
       // no surface point moved more than |dp| + R ||dR||_F + the sum of the size changes
       shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned) + grown;
-      if (!(shift[g] <= half)) return 0;
+      l->geom_stale[g] = !(shift[g] <= half);  // NaN: stale
+      stale += l->geom_stale[g];
     } else if (moved != 0.0 || turned != 0.0 || grown != 0.0) {
       return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
     } else {
       shift[g] = 0.0;
+      l->geom_stale[g] = 0;
     }
   }
-  return 1;
+  if (stale == 0) return 1;
+  // alone only in the direct build's range (a grid pass's order is sorted after, its grid reused)
+  int direct = rod->def.collision_sphere_count <= DIRECT_BUILD_SPHERES;
+  return direct && stale <= STALE_GEOMS_SHARE * world->geom_count ? 2 : 0;
 }
 
 int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->lists;
   int self_fresh = 0, geoms_fresh = 0, spheres = rod->def.collision_sphere_count;
   int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
-  int geoms_ok = geoms_valid(rod, world) || (geoms_fresh = 1, build_geoms(rod, world));
+  int geoms_state = geoms_valid(rod, world);
+  int geoms_ok = geoms_state == 1 || (geoms_state == 2 && rebuild_stale_geoms(rod, world)) ||
+                 (geoms_fresh = 1, build_geoms(rod, world));
   if (!self_ok || !geoms_ok) {  // a list overflowed (an extreme pile)
     l->self_built = l->geoms_built = 0;
     return 0;

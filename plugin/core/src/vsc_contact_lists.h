@@ -23,7 +23,11 @@ struct vsc_contact_lists {
   double* self_distance;      // each self pair's segment distance at the build (m)
   int geom_count, geom_capacity;
   int* geom_pairs;            // candidate (geom, sphere) pairs, sorted (2 per pair)
-  double* geom_distance;      // each geom pair's distance at the build (m; -inf: never skipped)
+  double* geom_distance;      // each geom pair's distance at its build less what its sphere had moved
+                              // since the spheres' snapshot then (m; -inf: never skipped)
+  int* merged_pairs;          // scratch of a partial rebuild: the next geom_pairs and geom_distance
+  double* merged_distance;
+  unsigned char* geom_stale;  // per geom, this refresh: 1 if it moved past half the margin since its build
   int self_built;             // 0: the self pairs must be built
   int geoms_built;            // 0: the geom pairs must be built
   int built_geoms;            // geom count at the geom pairs' build
@@ -35,7 +39,8 @@ struct vsc_contact_lists {
   double* segment;            // per segment, each evaluation: midpoint (m, 3), half length (m)
   double* moved;              // per sphere, each evaluation: distance moved since the self build (m)
   double* segment_moved;      // per segment: the larger of its two spheres' `moved` (m)
-  double* geom_moved;         // per sphere: distance moved since the geom build (m)
+  double* geom_moved;         // per sphere: distance moved since the spheres' snapshot at the last whole
+                              // geom build (m); a geom rebuilt alone since then keeps its own pose
   double* build_scratch;      // per segment, during a self build: midpoint (3), reach, excess
   const vsc_geom* geoms;      // the host's geom array at build
 };
