@@ -38,16 +38,18 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("radius", "radius", 12.5, None, "mm",
               "lumen diameter in vivo, jejunum 24.5 +- 4.2 mm, terminal ileum 18.7 +- 3.6 mm (MR enterography, "
               "Cronin et al.): radii 12.3 and 9.4 mm",
-              "the jejunum's; one radius for the whole box abdomen's bowel"),
+              "the box abdomen's bowel: the jejunum's, one radius along it; the anatomical abdomen's tapers "
+              "from 12.25 mm at the duodenojejunal flexure to 9.35 mm at the ileocaecal junction"),
     Parameter("springs", "stretch_stiffness, bend_stiffness", 1.0, (0.7, 1.5), "x default",
               "porcine small intestine, biaxial, low-strain longitudinal modulus 307 +- 30 kPa, 2.21 MPa at "
               "high strain (Terry, Wang, Schoen, Rentschler, IJECB 2014)",
               "the default stretch springs, EA = 40 N, are a 2 mm wall of the 12.5 mm tube at 0.28 MPa; one "
               "factor scales the stretch and bend springs, 0.7 to 1.5: 0.20 to 0.42 MPa around the low-strain "
               "figure (the bowel is handled at small strain)"),
-    Parameter("wall_thickness", "(in EA above)", 2.0, None, "mm",
+    Parameter("wall_thickness", "(in EA above); wall_thickness", 2.0, None, "mm",
               "small bowel wall 1.5 +- 0.5 mm (MR enterography, Cronin et al.)",
-              "2 mm, within one standard deviation"),
+              "2 mm, within one standard deviation; the anatomical abdomen's tapered bowel sets it, and its "
+              "springs scale along the taper as a 2 mm wall's section"),
     Parameter("bending", "bend_stiffness", 4.0, None, "N x m / length",
               "none found for the whole bowel's bending stiffness (a thin wall buckles and the contents fill it)",
               "the plugin's default bend springs, 4 N / length (1 N/m at 4 m), scaled by the springs' factor"),
