@@ -198,9 +198,9 @@ def anatomical_rates() -> str:
                  rows)
 
 
-ANATOMICAL_VARIANTS = {"full": "the anatomical abdomen: 5.06 m small bowel (300 points, 483 spheres) and colon",
+ANATOMICAL_VARIANTS = {"full": "the anatomical abdomen: 5.06 m tapered small bowel (300 points, 543 spheres) and 1.44 m colon",
                        "sleep off": "the same with `sleep` 0",
-                       "spheres 1.5 r": "the small bowel's spheres 1.5 r apart (323, not 483)",
+                       "spheres 1.5 r": "the small bowel's spheres 1.5 r apart (362, not 543)",
                        "no self-collision": "no self-collision in the small bowel",
                        "rigid only": "rigid only (MuJoCo without the intestines)"}
 

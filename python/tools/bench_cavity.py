@@ -115,8 +115,8 @@ def variant_xml(name: str, text: str | None = None) -> str:
     text = scene.scene_file(scene.ABDOMEN).read_text() if text is None else text
     if name == "spheres 1.5 r":
         gut = viscera.intestines(mujoco.MjModel.from_xml_string(text))[0]
-        return scene.with_intestine_config(text, {"collision_spheres": str(int(np.ceil(
-            gut.rest_length / (1.5 * gut.radius))) + 1)})
+        return scene.with_intestine_config(text, {"collision_spheres": str(int(np.ceil(  # a taper's thin end
+            gut.rest_length / (1.5 * min(gut.radius, gut.radius_end)))) + 1)})
     if name in VARIANT_CONFIG:
         return scene.with_intestine_config(text, VARIANT_CONFIG[name])
     if name == "rigid only":
