@@ -60,6 +60,11 @@ typedef struct intestine {
   int* handed_offset;     // per instance of the model: where this step's loads for it start in `handed` (-1: none)
   double* handed;         // the loads this step handed each higher partner (3 per control point of each, N)
   unsigned char* handed_any;  // per instance of the model: 1 if `handed` holds its loads this step
+  int* pressed_offset;    // per instance of the model: where its capsules start in `pressed`
+  unsigned char* pressed; // per capsule of each higher partner: 1 if a moving sphere of this one pressed it
+                          // this step (what wakes the partner's sleeping points there, as a moving geom would)
+  double* partner_waking_speed;  // per instance of the model: a sphere faster than this (m/s) wakes what it
+                                 // presses of it (VSC_SLEEP_GEOM_SPEED_SHARE of its rest_speed)
   double* load;           // the loads several lower instances handed over this step, summed (3 per point, N)
 } intestine;
 
@@ -76,6 +81,9 @@ static void intestine_free(intestine* it) {
   free(it->handed_offset);
   free(it->handed);
   free(it->handed_any);
+  free(it->pressed_offset);
+  free(it->pressed);
+  free(it->partner_waking_speed);
   free(it->all_geoms);
   free(it->all_wrench);
   free(it->load);
@@ -484,10 +492,14 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
   it->partners = (int*)malloc(sizeof(int) * (size_t)instances);
   it->handed_offset = (int*)malloc(sizeof(int) * (size_t)instances);
   it->handed_any = (unsigned char*)calloc((size_t)instances, 1);
-  if (!it->partners || !it->handed_offset || !it->handed_any) return -1;
+  it->pressed_offset = (int*)malloc(sizeof(int) * (size_t)instances);
+  it->partner_waking_speed = (double*)calloc((size_t)instances, sizeof(double));
+  if (!it->partners || !it->handed_offset || !it->handed_any || !it->pressed_offset || !it->partner_waking_speed)
+    return -1;
   size_t handed = 0;
   for (int j = 0; j < m->nplugin; ++j) {
     it->handed_offset[j] = -1;
+    it->pressed_offset[j] = it->partner_geoms;
     if (j <= instance || m->plugin[j] != it->plugin_slot) continue;
     intestine* other = caches(m, d, j);
     if (!other || excludes(it, j) || excludes(other, instance)) continue;
@@ -497,6 +509,7 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
     it->partner_spheres = spheres > it->partner_spheres ? spheres : it->partner_spheres;
     it->handed_offset[j] = (int)handed;
     handed += 3 * (size_t)other->config.rod.control_count;
+    it->partner_waking_speed[j] = VSC_SLEEP_GEOM_SPEED_SHARE * other->config.step.sleep.rest_speed;
   }
   if (it->partner_count == 0) return 0;
   size_t total = (size_t)it->world.count + (size_t)it->partner_geoms;
@@ -505,7 +518,9 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
   it->partner_centres = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
   it->partner_velocities = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
   it->handed = (double*)calloc(handed, sizeof(double));
-  if (!it->all_geoms || !it->all_wrench || !it->partner_centres || !it->partner_velocities || !it->handed) {
+  it->pressed = (unsigned char*)calloc((size_t)it->partner_geoms, 1);
+  if (!it->all_geoms || !it->all_wrench || !it->partner_centres || !it->partner_velocities || !it->handed ||
+      !it->pressed) {
     it->partner_count = it->partner_geoms = 0;
     return -1;
   }
@@ -534,6 +549,28 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
     g += spheres - 1;
   }
   return g;
+}
+
+// The sleeping points of this instance that a lower one's moving spheres
+// pressed this step wake (the capsules it flagged, read from its own buffer):
+// a load from a partner at rest lets them sleep, as a resting geom does.
+static void wake_pressed(const mjModel* m, const mjData* d, intestine* it, int instance, mjtNum* state) {
+  int n = it->config.rod.control_count, spheres = it->config.rod.collision_sphere_count;
+  const double* q = state + it->layout.offset[VSC_STATE_POSITIONS];
+  double* rest = state + it->layout.offset[VSC_STATE_REST];
+  for (int i = 0; i < instance; ++i) {
+    if (m->plugin[i] != it->plugin_slot) continue;
+    const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
+    if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
+    const unsigned char* pressed = lower->pressed + lower->pressed_offset[instance];
+    for (int c = 0; c + 1 < spheres; ++c) {
+      if (!pressed[c]) continue;
+      for (int end = 0; end < 2; ++end) {  // the points either sphere of capsule c depends on
+        vsc_basis b = vsc_spline_basis(n, (double)(c + end) / (double)(spheres - 1));
+        for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k) vsc_rest_wake(k, q, rest);
+      }
+    }
+  }
 }
 
 // The loads the lower instances handed this one this step (they advanced
@@ -585,18 +622,42 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   }
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
   const double* load = received_load(m, d, it, instance);
-  if (load) {  // a load wakes the points it lies on, as a geom pressing them would
-    const double* q = state + l.offset[VSC_STATE_POSITIONS];
-    for (int k = 0; k < it->config.rod.control_count; ++k) {
-      const double* f = load + 3 * k;
-      if (f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0) vsc_rest_wake(k, q, state + l.offset[VSC_STATE_REST]);
-    }
+  if (load) {
+    wake_pressed(m, d, it, instance, state);
     world.control_load = load;
   }
   world.grasps = it->holds.grasps;
   world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state,
                                               state + l.offset[VSC_STATE_GRASPS], &it->holds);
   return world;
+}
+
+typedef struct pressing {
+  intestine* it;
+  int instances, geoms;
+} pressing;
+
+// A contact of this instance's sphere a against a partner's capsule b: flag the
+// capsule if the sphere moved (faster than a geom must to wake a sleeping
+// sphere it touches) or pressed deeper than a sleeping sphere may be pressed:
+// the rules vsc_sleep.h gives a geom, with this instance as the geom.
+static void flag_pressed(void* data, int rigid, int a, int b, double speed, double depth) {
+  (void)speed;  // the relative speed counts the partner's own motion; the sphere's alone wakes it
+  pressing* p = (pressing*)data;
+  intestine* it = p->it;
+  if (!rigid || b < it->world.count || b >= p->geoms) return;
+  int capsule = b - it->world.count, j = -1;  // whose: the partner whose capsules span b
+  for (int q = 0; q < it->partner_count; ++q) {
+    int first = it->pressed_offset[it->partners[q]];
+    int count = q + 1 < it->partner_count ? it->pressed_offset[it->partners[q + 1]] - first : it->partner_geoms - first;
+    if (capsule >= first && capsule < first + count) j = it->partners[q];
+  }
+  if (j < 0) return;
+  const double* v = vsc_rod_sphere_velocities(it->rod) + 3 * a;
+  double moving = it->partner_waking_speed[j];
+  if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > moving * moving ||
+      depth > VSC_SLEEP_WAKE_DEPTH * it->all_geoms[b].size[0])
+    it->pressed[capsule] = 1;
 }
 
 // Scatter: the step's average reaction per body, as force and torque about its
@@ -637,9 +698,12 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     double* handed = it->handed + it->handed_offset[j];
     memset(handed, 0, sizeof(double) * 3 * (size_t)other->config.rod.control_count);
     vsc_partner_add_load(other->rod, spheres, world->geoms + g, world->geom_wrench + 6 * g, handed);
+    memset(it->pressed + it->pressed_offset[j], 0, (size_t)(spheres - 1));
     it->handed_any[j] = 1;
     g += spheres - 1;
   }
+  pressing request = {it, m->nplugin, world->geom_count};
+  vsc_rod_visit_contacts(it->rod, flag_pressed, &request);
 }
 
 // Count a diverged or recovered step in the state; warn at counts 1, 2, 4, 8...: no spam.

@@ -170,3 +170,32 @@ def test_the_shipped_scene_of_two_intestines_settles_one_across_the_other():
     assert heights.min() >= 0.9 * colon.radius
     for gut in (bowel, colon):
         assert gut.recovery_count(data) == 0 and gut.divergence_count(data) == 0
+
+
+def test_a_tube_resting_on_another_sleeps_and_wakes_when_the_lower_one_moves():
+    """The points the lower instance loads sleep once both rest (a load from a partner at rest, as a
+    resting geom's, wakes nothing), and wake when the lower one's spheres under them move, as a
+    moving geom wakes what it touches (docs/model.md#intestines-together)."""
+    bottom = instance_xml("bottom", length=1.0, control_points=30, radius=0.0125, shape="line",
+                          start=[-0.5, 0, 0.0125], direction=[1, 0, 0], sleep=1, damping=5)
+    top = instance_xml("top", length=1.0, control_points=30, radius=0.01, shape="line",
+                       start=[0, -0.5, 0.05], direction=[0, 1, 0], sleep=1, damping=5)
+    model = mujoco.MjModel.from_xml_string(model_xml([bottom, top]))
+    data = mujoco.MjData(model)
+    lower, upper = viscera.intestine(model, "bottom"), viscera.intestine(model, "top")
+    while data.time < 4.0:
+        mujoco.mj_step(model, data)
+    # the top tube's middle lies on the bottom one: loaded, and asleep with the rest of it
+    middle = upper.axis_points(data, 201)[100]
+    assert middle[2] == pytest.approx(2 * 0.0125 + 0.01, rel=0.1)
+    assert np.all(upper.asleep(data)) and np.all(lower.asleep(data))
+    # the bottom tube's middle kicked upwards: the top one's points over it wake
+    state = data.plugin_state[model.plugin_stateadr[lower.instance]:]
+    velocities = state[lower.layout["velocities"]].reshape(-1, 3)
+    velocities[12:18, 2] = 0.05
+    rest = state[lower.layout["rest"]].reshape(lower.control_count, -1)
+    rest[12:18, 0] = 0.0  # awake (its rest starts over)
+    for _ in range(5):
+        mujoco.mj_step(model, data)
+    woken = ~np.asarray(upper.asleep(data), bool)
+    assert woken[13:17].all() and not woken[:5].any()

@@ -18,11 +18,4 @@
 /// everywhere looks at moving bodies' geoms only.
 int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q);
 
-/// Each contact the last contact pass found: visit(data, rigid, a, b, speed,
-/// depth) with rigid 1 for sphere a against geom b, 0 for segments a < b, the
-/// speed of a relative to b at the contact (m/s) and its depth (m). Sleeping
-/// reads it (vsc_sleep.c).
-void vsc_rod_visit_contacts(const vsc_rod* rod,
-                            void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data);
-
 #endif  // VISCERA_SRC_VSC_CONTACT_H

@@ -81,4 +81,12 @@ typedef struct vsc_deepest_contact {
 /// touch records are left alone) and may rebuild the candidate lists.
 double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest);
 
+/// Each contact the last contact pass found: visit(data, rigid, a, b, speed,
+/// depth) with rigid 1 for sphere a against geom b, 0 for segments a < b, the
+/// speed of a relative to b at the contact (m/s) and its depth (m). Sleeping
+/// reads it (vsc_sleep.c), and a host handing another rod the loads of these
+/// contacts (which of them its moving spheres press).
+void vsc_rod_visit_contacts(const vsc_rod* rod,
+                            void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data);
+
 #endif  // VISCERA_VSC_CONTACT_H
