@@ -79,11 +79,12 @@ static int take_slot(void) {
   return index;
 }
 
-void* vsc_caches_install(mjData* d, int instance, void* cache) {
+void* vsc_caches_install(mjData* d, int instance, void* cache, int fresh) {
   lock();
   void* replaced = NULL;
-  // not find_owned's scan: a new data owns no slot yet, and a copy's first step adopts its own first
-  uintptr_t handle = d->plugin_data[instance];
+  // not find_owned's scan: a new data owns no slot yet (and its plugin_data is not yet written:
+  // MuJoCo calls init before it zeroes them), and a copy's first step adopts its own first
+  uintptr_t handle = fresh ? 0 : d->plugin_data[instance];
   int index = owns(slot_of(handle), d, instance) ? (int)(handle - 1) : take_slot();
   if (index < 0) {
     replaced = cache;  // out of memory: nothing installed

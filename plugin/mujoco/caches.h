@@ -19,10 +19,11 @@ void* vsc_caches_resolve(const mjData* d, int instance);
 
 /// Make `cache` d's cache of `instance`: in the slot d's plugin_data names if d
 /// owns it, else in a new slot; d->plugin_data[instance] then names it. (A
-/// pickled copy adopts its own slot first: see vsc_caches_adopt.)
+/// pickled copy adopts its own slot first: see vsc_caches_adopt.) `fresh`: d is
+/// being made (init), its plugin_data not read.
 /// Returns the cache it replaces (the caller frees it), or `cache` itself if
 /// memory ran out (nothing changed; the caller keeps ownership).
-void* vsc_caches_install(mjData* d, int instance, void* cache);
+void* vsc_caches_install(mjData* d, int instance, void* cache, int fresh);
 
 /// The cache `d` owns for `instance`: its plugin_data's slot if d owns it, else
 /// the slot d owns found by a scan (a pickled copy's plugin_data names its

@@ -158,7 +158,7 @@ static void write_initial_state(const mjModel* m, const vsc_plugin_config* c, co
 // must be the size the config needs (an MJB saved with another config would
 // overflow it). Any stale entry at this address (a freed mjData) is released.
 // Returns the caches, or NULL with `error` filled.
-static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, char* error) {
+static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, int fresh, char* error) {
   intestine* it = intestine_create(m, instance, error);
   if (!it) return NULL;
   if (m->plugin_statenum[instance] != config_state_size(m, &it->config)) {
@@ -167,7 +167,7 @@ static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, 
     intestine_free(it);
     return NULL;
   }
-  void* replaced = vsc_caches_install(d, instance, it);
+  void* replaced = vsc_caches_install(d, instance, it, fresh);
   if (replaced == it) {  // out of memory
     intestine_free(it);
     strcpy(error, "viscera.intestine: out of memory");
@@ -178,9 +178,9 @@ static intestine* install_or_explain(const mjModel* m, mjData* d, int instance, 
 }
 
 // install_or_explain, the error as MuJoCo's warning.
-static intestine* install(const mjModel* m, mjData* d, int instance) {
+static intestine* install(const mjModel* m, mjData* d, int instance, int fresh) {
   char error[ERROR_SIZE];
-  intestine* it = install_or_explain(m, d, instance, error);
+  intestine* it = install_or_explain(m, d, instance, fresh, error);
   if (!it) mju_warning("%s", error);
   return it;
 }
@@ -193,7 +193,7 @@ int vsc_intestine_reconfigure(const mjModel* m, mjData* d, int instance, char* e
     snprintf(error, (size_t)error_size, "viscera.intestine: plugin instance %d is not a viscera.intestine", instance);
     return -1;
   }
-  if (install_or_explain(m, d, instance, message)) return 0;
+  if (install_or_explain(m, d, instance, 0, message)) return 0;
   snprintf(error, (size_t)error_size, "%s", message);
   return -1;
 }
@@ -206,7 +206,7 @@ static intestine* caches(const mjModel* m, mjData* d, int instance) {
   intestine* it = (intestine*)vsc_caches_resolve(d, instance);
   if (it && it->model == m) return it;
   if (!it) it = (intestine*)vsc_caches_adopt(d, instance);
-  return it && it->model == m ? it : install(m, d, instance);
+  return it && it->model == m ? it : install(m, d, instance, 0);
 }
 
 _Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "all_finite reads the high word second");
@@ -267,7 +267,7 @@ static int intestine_nstate(const mjModel* m, int instance) {
 
 static int intestine_init(const mjModel* m, mjData* d, int instance) {
   if (check_sensors(m, instance)) return -1;
-  intestine* it = install(m, d, instance);
+  intestine* it = install(m, d, instance, 1);
   if (!it) return -1;
   write_initial_state(m, &it->config, it->initial_q, d->plugin_state + m->plugin_stateadr[instance]);
   return 0;

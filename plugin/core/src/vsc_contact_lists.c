@@ -17,9 +17,14 @@
 // hashing, cache-friendly, already sorted); past it through the grid, O(n)
 #define DIRECT_BUILD_SPHERES 1024
 
+// Partial rebuilds (rebuild_stale_geoms) run in the direct build's range only: their scratch is
+// allocated there only.
+static int rebuilds_geoms_alone(int spheres) { return spheres <= DIRECT_BUILD_SPHERES; }
+
 double vsc_contact_lists_memory_bytes(int spheres) {
+  double geom_lists = rebuilds_geoms_alone(spheres) ? 2.0 * GEOM_PAIRS_PER_SPHERE : GEOM_PAIRS_PER_SPHERE;
   return sizeof(vsc_contact_lists) +
-         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + 2.0 * GEOM_PAIRS_PER_SPHERE) +
+         (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + geom_lists) +
                             18.0 * sizeof(double));
 }
 
@@ -33,14 +38,16 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->self_distance = (double*)malloc(sizeof(double) * (size_t)l->self_capacity);
   l->geom_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
   l->geom_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
-  l->merged_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
-  l->merged_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
+  if (rebuilds_geoms_alone(spheres)) {
+    l->merged_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
+    l->merged_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
+  }
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
   l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
-  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance || !l->merged_pairs ||
-      !l->merged_distance || !l->sphere_xyz ||
+  if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance ||
+      (rebuilds_geoms_alone(spheres) && (!l->merged_pairs || !l->merged_distance)) || !l->sphere_xyz ||
       !l->geom_sphere_xyz || !l->segment || !l->moved) {
     vsc_contact_lists_destroy(l);
     return NULL;
@@ -454,8 +461,7 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
   }
   if (stale == 0) return 1;
   // alone only in the direct build's range (a grid pass's order is sorted after, its grid reused)
-  int direct = rod->def.collision_sphere_count <= DIRECT_BUILD_SPHERES;
-  return direct && stale <= STALE_GEOMS_SHARE * world->geom_count ? 2 : 0;
+  return rebuilds_geoms_alone(rod->def.collision_sphere_count) && stale <= STALE_GEOMS_SHARE * world->geom_count ? 2 : 0;
 }
 
 int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
