@@ -634,7 +634,7 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
 
 typedef struct pressing {
   intestine* it;
-  int instances, geoms;
+  int geoms;  // this step's geoms in all: MuJoCo's, then the partners' capsules
 } pressing;
 
 // A contact of this instance's sphere a against a partner's capsule b: flag the
@@ -702,7 +702,7 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     it->handed_any[j] = 1;
     g += spheres - 1;
   }
-  pressing request = {it, m->nplugin, world->geom_count};
+  pressing request = {it, world->geom_count};
   vsc_rod_visit_contacts(it->rod, flag_pressed, &request);
 }
 
