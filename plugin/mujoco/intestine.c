@@ -321,45 +321,36 @@ static void intestine_reset(const mjModel* m, mjtNum* plugin_state, void* plugin
   vsc_plugin_config_free(&config);
 }
 
-typedef struct skin_request {
+// What the exports read of a data's caches, copied under the caches' mutex.
+typedef struct config_request {
   const mjModel* m;
-  vsc_skin_def* skin;
-  int* control_count;
+  vsc_skin_def skin;
+  int control_count;
+  vsc_grasper_config grasp;
   int found;
-} skin_request;
+} config_request;
 
-static void copy_skin(void* cache, void* context) {
+static void copy_config(void* cache, void* context) {
   intestine* it = (intestine*)cache;
-  skin_request* request = (skin_request*)context;
+  config_request* request = (config_request*)context;
   if (it->model != request->m) return;
-  *request->skin = it->config.skin;
-  *request->control_count = it->config.rod.control_count;
+  request->skin = it->config.skin;
+  request->control_count = it->config.rod.control_count;
+  request->grasp = it->config.grasp;
   request->found = 1;
 }
 
 int vsc_intestine_skin_def(const mjModel* m, const mjData* d, int instance, vsc_skin_def* skin, int* control_count) {
-  skin_request request = {m, skin, control_count, 0};
-  if (d) vsc_caches_with(d, instance, copy_skin, &request);
+  config_request request = {.m = m};
+  if (d) vsc_caches_with(d, instance, copy_config, &request);
+  if (request.found) *skin = request.skin, *control_count = request.control_count;
   return request.found;
 }
 
-typedef struct grasp_request {
-  const mjModel* m;
-  vsc_grasper_config* grasp;
-  int found;
-} grasp_request;
-
-static void copy_grasp(void* cache, void* context) {
-  intestine* it = (intestine*)cache;
-  grasp_request* request = (grasp_request*)context;
-  if (it->model != request->m) return;
-  *request->grasp = it->config.grasp;
-  request->found = 1;
-}
-
 int vsc_intestine_grasper_config(const mjModel* m, const mjData* d, int instance, vsc_grasper_config* grasp) {
-  grasp_request request = {m, grasp, 0};
-  if (d) vsc_caches_with(d, instance, copy_grasp, &request);
+  config_request request = {.m = m};
+  if (d) vsc_caches_with(d, instance, copy_config, &request);
+  if (request.found) *grasp = request.grasp;
   return request.found;
 }
 

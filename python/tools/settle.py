@@ -111,31 +111,38 @@ def _resting_height(x: float, y: float, radius: float) -> float:
     return float(tops.max()) + 0.0025
 
 
+def _colon_sections() -> list[tuple[str, list[tuple[float, float, float]], list[bool]]]:
+    """colon_path's sections in order: each one's name, vertices (m) and which of them lie on the
+    wall (a fold's lows, every vertex of the retroperitoneal parts)."""
+    def resting(x: float, y: float, lift: float = 0.0) -> tuple[float, float, float]:
+        return x, y, _resting_height(x, y, COLON_RADIUS) + lift
+
+    def folds(xs: np.ndarray, y: float, lift: float, first_low: int) -> tuple[list, list[bool]]:
+        lows = [(i + first_low) % 2 == 0 for i in range(len(xs))]
+        return [resting(x, y, 0.0 if low else lift) for x, low in zip(xs, lows)], lows
+
+    ascending = [resting(0.14, y) for y in np.linspace(-0.125, 0.115, 13)]
+    transverse, transverse_lows = folds(np.linspace(0.11, -0.11, 9), 0.135, 0.055, 0)
+    descending = [resting(-0.14, y) for y in np.linspace(0.12, -0.10, 12)]
+    sigmoid, sigmoid_lows = folds(np.linspace(-0.115, 0.035, 7), -0.13, 0.045, 1)
+    return [("ascending", ascending, [True] * len(ascending)), ("transverse", transverse, transverse_lows),
+            ("descending", descending, [True] * len(descending)), ("sigmoid", sigmoid, sigmoid_lows),
+            ("rectum", [resting(0.0, -0.15)], [True])]
+
+
 def colon_path() -> np.ndarray:
-    """The colon's initial polyline (m, (k, 3)) in the anatomical abdomen, 1.47 m: an adult's
+    """The colon's initial polyline (m, (k, 3)) in the anatomical abdomen, 1.44 m: an adult's
     length (about 1.5 m in textbook anatomy, its sections about 20 cm ascending with the caecum,
     46 cm transverse, 25 cm descending and 35 to 40 cm sigmoid). The caecum's pole lies at the
     right caudal corner and the ascending colon runs up the right flank, resting on the posterior
     wall every 2 cm (retroperitoneal: the scene pins these points), 0.25 m; the transverse colon,
-    0.55 m with both flexures, crosses the cranial edge from the hepatic flexure, its redundancy
+    0.52 m with both flexures, crosses the cranial edge from the hepatic flexure, its redundancy
     in folds that rise 5.5 cm and fall onto each other there, where a surgeon lifts it to reach
     the small bowel; the descending colon runs down the left flank, resting on the wall like the
-    ascending, 0.23 m; the sigmoid, 0.44 m, folds across the caudal edge to the rectum's end on
-    the pelvic brim. Both folds' strips lie beyond the small bowel's lay region and the tasks'
+    ascending, 0.23 m; the sigmoid with the rectum, 0.42 m, folds across the caudal edge to the
+    rectum's end on the pelvic brim. Both folds' strips lie beyond the small bowel's lay region and the tasks'
     targets (y beyond +-0.115 m)."""
-    def resting(x: float, y: float, lift: float = 0.0) -> tuple[float, float, float]:
-        return x, y, _resting_height(x, y, COLON_RADIUS) + lift
-
-    ascending = [resting(0.14, y) for y in np.linspace(-0.125, 0.115, 13)]
-    transverse = [resting(x, 0.135, 0.055 * (i % 2)) for i, x in enumerate(np.linspace(0.11, -0.11, 9))]
-    descending = [resting(-0.14, y) for y in np.linspace(0.12, -0.10, 12)]
-    sigmoid = [resting(x, -0.13, 0.045 * (1 - i % 2)) for i, x in enumerate(np.linspace(-0.115, 0.035, 7))]
-    return np.array(ascending + transverse + descending + sigmoid + [resting(0.0, -0.15)])
-
-
-# colon_path's vertices: the ascending colon's, the transverse colon's folds (its lows at even
-# offsets), the descending colon's, then the sigmoid's folds (its lows at odd offsets) and the rectum
-ASCENDING, TRANSVERSE, DESCENDING, SIGMOID = range(0, 13), range(13, 22), range(22, 34), range(34, 41)
+    return np.array([vertex for _, vertices, _ in _colon_sections() for vertex in vertices])
 
 
 def colon_pins(control_count: int) -> list[int]:
@@ -145,10 +152,14 @@ def colon_pins(control_count: int) -> list[int]:
     path = colon_path()
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
     at = arc / arc[-1] * (control_count - 1)  # each vertex's place in control-point spacings
-    pins = {k for k in range(control_count)
-            for run in (ASCENDING, DESCENDING) if at[run[0]] - 1e-9 <= k <= at[run[-1]] + 1e-9}
-    lows = [v for v in TRANSVERSE if (v - TRANSVERSE[0]) % 2 == 0] + [v for v in SIGMOID if (v - SIGMOID[0]) % 2 == 1]
-    pins |= {int(round(at[v])) for v in lows}
+    pins, first = set(), 0
+    for name, vertices, lows in _colon_sections():
+        span = range(first, first + len(vertices))
+        if name in ("ascending", "descending"):  # every point along them
+            pins |= {k for k in range(control_count) if at[span[0]] - 1e-9 <= k <= at[span[-1]] + 1e-9}
+        elif name in ("transverse", "sigmoid"):  # the point nearest each fold's low
+            pins |= {int(round(at[v])) for v, low in zip(span, lows) if low}
+        first += len(vertices)
     return sorted(pins) + [-1]
 
 

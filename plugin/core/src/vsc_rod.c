@@ -108,8 +108,9 @@ static vsc_status validate(const vsc_rod_def* d) {
 }
 
 // A tapered tube's springs follow its section (vsc_rod.h): area at each
-// stretch spring's middle, second moment at each bend spring's middle sample
-// and at each sample for the curvature term, over the section at s = 0.
+// stretch spring's middle, second moment at each sample for the curvature term
+// (and for the bend spring whose middle it is: bend_scale points into it), over
+// the section at s = 0.
 static void section_scales(vsc_rod* rod) {
   const vsc_rod_def* d = &rod->def;
   int N = rod->sample_count;
@@ -118,7 +119,6 @@ static void section_scales(vsc_rod* rod) {
   for (int a = 0; a < N; ++a) {
     vsc_tube_section(vsc_rod_def_radius_at(d, (double)a / (double)(N - 1)), d->wall_thickness, &area, &moment);
     rod->curvature_scale[a] = moment / moment0;
-    if (a >= 1 && a + 1 < N) rod->bend_scale[a - 1] = moment / moment0;
     if (a + 1 < N) {
       vsc_tube_section(vsc_rod_def_radius_at(d, ((double)a + 0.5) / (double)(N - 1)), d->wall_thickness, &area, &moment);
       rod->stretch_scale[a] = area / area0;
@@ -241,7 +241,7 @@ enum {
   ARRAY_PINNED,          // pinned indices (at least 1)
   ARRAY_IS_PINNED,       // n bytes
   ARRAY_ASLEEP,          // n bytes, 1 byte per sphere, then 2 x n bytes
-  ARRAY_SECTION_SCALE,   // 3 N - 3 if tapered (stretch, bend, curvature factors), else none
+  ARRAY_SECTION_SCALE,   // 2 N - 1 if tapered (stretch, curvature factors), else none
   ARRAY_COUNT
 };
 
@@ -276,7 +276,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
   bytes[ARRAY_IS_PINNED] = n;
   bytes[ARRAY_ASLEEP] = 3.0 * n + spheres;
-  bytes[ARRAY_SECTION_SCALE] = vsc_rod_def_radius_at(def, 1.0) != def->radius ? (3.0 * N - 3.0) * d : 0.0;
+  bytes[ARRAY_SECTION_SCALE] = vsc_rod_def_radius_at(def, 1.0) != def->radius ? (2.0 * N - 1.0) * d : 0.0;
 }
 
 // Offsets of the arrays in the block (bytes, aligned) and the block's size.
@@ -338,8 +338,8 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {
     int N = (def->control_count - 1) * def->samples_per_segment + 1;
     rod->stretch_scale = (double*)AT(ARRAY_SECTION_SCALE);
-    rod->bend_scale = rod->stretch_scale + (N - 1);
-    rod->curvature_scale = rod->bend_scale + (N - 2);
+    rod->curvature_scale = rod->stretch_scale + (N - 1);
+    rod->bend_scale = rod->curvature_scale + 1;  // bend spring a's middle is sample a + 1
   }
   #undef AT
   return 0;

@@ -26,7 +26,7 @@ struct vsc_rod {
   double bend_spring;        ///< k_b per spring (N/m)
   // a tapered tube's section factors (NULL untapered: every factor 1), read-only after creation
   double* stretch_scale;     ///< A(r) / A(r0) at each stretch spring's middle (N - 1)
-  double* bend_scale;        ///< I(r) / I(r0) at each bend spring's middle sample (N - 2)
+  double* bend_scale;        ///< I(r) / I(r0) at each bend spring's middle sample (N - 2): curvature_scale + 1
   double* curvature_scale;   ///< I(r) / I(r0) at each sample, for the curvature term and the clamps (N)
   vsc_basis* sample_basis;   ///< basis of each sample (N)
   vsc_basis* sphere_basis;   ///< basis of each collision sphere (collision_sphere_count)
