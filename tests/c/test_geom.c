@@ -117,8 +117,31 @@ static void new_primitives(void) {
   check(&heightfield, 0, 0, 2, 1 / sqrt(2.0), -1 / sqrt(2.0), 0, 1 / sqrt(2.0));
 }
 
+// A height field's distance and normal are continuous across its cells' edges,
+// where the bilinear patches' own slopes jump (a resting sphere that crossed one
+// was kicked: an energy source that kept the colon bouncing on the posterior wall).
+static void heightfield_continuous(void) {
+  // 1 row of cells over x in [-1, 1], 4 columns: flat, then a rise of 1 per cell, then flat
+  float kink[8] = {0.0f, 0.0f, 1.0f, 1.0f, 0.0f, 0.0f, 1.0f, 1.0f};
+  vsc_heightfield field = {2, 4, kink, {1.5, 1, 1, 0.5}};  // cells 1 m wide, heights in m
+  vsc_geom g = make(VSC_GEOM_HEIGHTFIELD, 0, 0, 0);
+  g.heightfield = &field;
+  for (int edge = 0; edge < 2; ++edge) {  // the interior edges at x = -0.5 and 0.5
+    double x = edge ? 0.5 : -0.5, below[3] = {x - 1e-9, 0.3, 1.2}, above[3] = {x + 1e-9, 0.3, 1.2}, na[3], nb[3];
+    double da = vsc_geom_distance(&g, below, na), db = vsc_geom_distance(&g, above, nb);
+    ENSURE_NEAR(da, db, 1e-8);
+    for (int c = 0; c < 3; ++c) ENSURE_NEAR(na[c], nb[c], 1e-8);
+  }
+  // at a grid vertex the slope is the central difference: 1/2 at the foot of the rise
+  double foot[3] = {-0.5, 0, 1}, n[3];
+  ENSURE_NEAR(vsc_geom_distance(&g, foot, n), 1 / sqrt(1.25), 1e-12);
+  ENSURE_NEAR(n[0], -0.5 / sqrt(1.25), 1e-12);
+  ENSURE_NEAR(n[2], 1 / sqrt(1.25), 1e-12);
+}
+
 int main(void) {
   RUN(primitives);
+  RUN(heightfield_continuous);
   RUN(rotated_and_moving);
   RUN(new_primitives);
   TEST_MAIN_END();

@@ -168,8 +168,25 @@ static double convex_distance(const vsc_convex* c, const double l[3], double n[3
 }
 
 // Height field: bilinear surface z = h(x, y); distance (z - h) n_z along the
-// surface normal n ~ (-dh/dx, -dh/dy, 1). Outside its x-y extent or below its
-// base there is no contact.
+// surface normal n ~ (-gx, -gy, 1), with the slope (gx, gy) interpolated
+// bilinearly from each grid vertex's central differences. The bilinear
+// patches' own slopes jump at the cells' edges, and so would the distance
+// (z - h) n_z: a sphere resting beside a steep fold crossed an edge and was
+// kicked back, a bounce that never settled. Both are continuous this way.
+// Outside its x-y extent or below its base there is no contact.
+static double heightfield_elevation(const vsc_heightfield* h, int row, int column) {
+  return h->size[2] * h->elevation[row * h->columns + column];
+}
+
+// The slope (dz/dx, dz/dy) at grid vertex (row, column): central differences, one-sided at the border.
+static void heightfield_vertex_slope(const vsc_heightfield* h, int row, int column, double slope[2]) {
+  int c0 = column > 0 ? column - 1 : 0, c1 = column < h->columns - 1 ? column + 1 : column;
+  int r0 = row > 0 ? row - 1 : 0, r1 = row < h->rows - 1 ? row + 1 : row;
+  double cell_x = 2.0 * h->size[0] / (h->columns - 1), cell_y = 2.0 * h->size[1] / (h->rows - 1);
+  slope[0] = (heightfield_elevation(h, row, c1) - heightfield_elevation(h, row, c0)) / ((c1 - c0) * cell_x);
+  slope[1] = (heightfield_elevation(h, r1, column) - heightfield_elevation(h, r0, column)) / ((r1 - r0) * cell_y);
+}
+
 static double heightfield_distance(const vsc_heightfield* h, const double l[3], double n[3]) {
   n[0] = 0.0; n[1] = 0.0; n[2] = 1.0;
   double fx = (l[0] + h->size[0]) / (2.0 * h->size[0]) * (h->columns - 1);
@@ -178,13 +195,17 @@ static double heightfield_distance(const vsc_heightfield* h, const double l[3], 
   int c0 = (int)fx, r0 = (int)fy;
   if (c0 > h->columns - 2) c0 = h->columns - 2;
   if (r0 > h->rows - 2) r0 = h->rows - 2;
-  double u = fx - c0, v = fy - r0, top = h->size[2];
-  const float* e = h->elevation;
-  double z00 = top * e[r0 * h->columns + c0], z10 = top * e[r0 * h->columns + c0 + 1];
-  double z01 = top * e[(r0 + 1) * h->columns + c0], z11 = top * e[(r0 + 1) * h->columns + c0 + 1];
-  double height = (1 - u) * (1 - v) * z00 + u * (1 - v) * z10 + (1 - u) * v * z01 + u * v * z11;
-  double dx = ((1 - v) * (z10 - z00) + v * (z11 - z01)) * (h->columns - 1) / (2.0 * h->size[0]);
-  double dy = ((1 - u) * (z01 - z00) + u * (z11 - z10)) * (h->rows - 1) / (2.0 * h->size[1]);
+  double u = fx - c0, v = fy - r0;
+  double weight[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+  int rows[4] = {r0, r0, r0 + 1, r0 + 1}, columns[4] = {c0, c0 + 1, c0, c0 + 1};
+  double height = 0.0, dx = 0.0, dy = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    double slope[2];
+    heightfield_vertex_slope(h, rows[k], columns[k], slope);
+    height += weight[k] * heightfield_elevation(h, rows[k], columns[k]);
+    dx += weight[k] * slope[0];
+    dy += weight[k] * slope[1];
+  }
   double norm = sqrt(dx * dx + dy * dy + 1.0);
   n[0] = -dx / norm; n[1] = -dy / norm; n[2] = 1.0 / norm;
   return (l[2] - height) / norm;
