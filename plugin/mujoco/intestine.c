@@ -45,8 +45,8 @@ typedef struct intestine {
   int substeps;              // substeps per step at that timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
   // contacts with the other intestine instances (partners.h): this one computes those with the
-  // higher instances and hands them loads; the lower ones hand it theirs
-  // and hands them loads through its own `handed`, which they read; the lower ones hand it theirs
+  // higher instances and hands them loads through its own `handed`, which they read; the lower
+  // ones hand it theirs
   int plugin_slot;        // viscera.intestine's index in MuJoCo's plugin table (which instances are intestines)
   int partners_known;     // 1: the partners were looked up (at this data's first step)
   int partner_count;      // higher instances it collides with
