@@ -102,7 +102,6 @@ int vsc_mujoco_holds_update(const mjModel* m, mjData* d, const vsc_grasper_confi
     out->slip_at[holds - 1] = vsc_mujoco_grasp_slip_pull(g, out->pinch[holds - 1]);
     hold->stiffness = g->stiffness;
     hold->damping = g->damping;
-    hold->reaction[0] = hold->reaction[1] = hold->reaction[2] = 0.0;
   }
   out->count = holds;
   return holds;
@@ -116,7 +115,7 @@ void vsc_mujoco_holds_release(const mjModel* m, const mjData* d, const vsc_grasp
   for (int h = 0; h < holds->count; ++h) {
     const vsc_grasp* hold = &holds->grasps[h];
     int i = holds->owner[h], body = m->site_bodyid[g->site[i]];
-    const double* f = hold->reaction;
+    const double* f = holds->reaction + 3 * h;
     if (!(isfinite(f[0]) && isfinite(f[1]) && isfinite(f[2]))) continue;  // never hand MuJoCo a NaN
     const mjtNum* com = d->xipos + 3 * body;
     double arm[3] = {hold->anchor[0] - com[0], hold->anchor[1] - com[1], hold->anchor[2] - com[2]};

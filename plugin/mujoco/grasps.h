@@ -23,6 +23,8 @@ typedef struct vsc_mujoco_holds {
   int owner[VSC_MAX_GRASPERS];  ///< which grasper (grasp_sites index) each hold belongs to
   double pinch[VSC_MAX_GRASPERS];    ///< each hold's pinch this step (N; negative: no actuator drives the jaw)
   double slip_at[VSC_MAX_GRASPERS];  ///< the pull past which each hold slips this step (N)
+  double reaction[3 * VSC_MAX_GRASPERS];  ///< each hold's force on its anchor, the step's average (N; the
+                                          ///< core's output, vsc_reactions.grasp_force)
   int count;
 } vsc_mujoco_holds;
 

@@ -590,7 +590,8 @@ static const double* received_load(const mjModel* m, const mjData* d, intestine*
 // poses and velocities at the step start, the other intestines' tubes, the
 // friction state's partners checked, the jaws' holds taken or let go, and the
 // loads the lower intestines handed over.
-static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* state, int instance) {
+static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* state, int instance,
+                        vsc_reactions* reactions) {
   const vsc_state_layout l = it->layout;
   vsc_world world = {{0, 0, 0}, it->world.geoms, contacts_enabled(m) ? it->world.count : 0};
   model_gravity(m, world.gravity);
@@ -601,15 +602,14 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   }
   if (world.geom_count > 0) vsc_mujoco_geoms_update(m, d, it->config.friction, &it->world);
   warn_once(m, it, &world, state);
-  memset(it->geom_wrench, 0, sizeof(double) * 6 * (size_t)it->world.count);
-  world.geom_wrench = it->geom_wrench;
+  reactions->geom_wrench = it->geom_wrench;
+  reactions->grasp_force = it->holds.reaction;
   if (!it->partners_known && find_partners(m, d, it, instance))
     mju_warning("viscera.intestine: out of memory: instance %d does not collide with the other intestines", instance);
   if (it->partner_count > 0 && contacts_enabled(m)) {
     world.geoms = it->all_geoms;
     world.geom_count = add_partner_capsules(m, d, it);
-    memset(it->all_wrench, 0, sizeof(double) * 6 * (size_t)world.geom_count);
-    world.geom_wrench = it->all_wrench;
+    reactions->geom_wrench = it->all_wrench;
   }
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
   const double* load = received_load(m, d, it, instance);
@@ -656,13 +656,14 @@ static void flag_pressed(void* data, int rigid, int a, int b, double speed, doub
 // (a hold slides past the jaws' friction, tears out past slip_force: grasps.h); the
 // wall's damage from the holds' pinches and overstretching; the reactions on the partners' capsules
 // handed to them as loads.
-static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world* world, mjtNum* state) {
+static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world* world,
+                    const vsc_reactions* reactions, mjtNum* state) {
   const vsc_state_layout l = it->layout;
   mjtNum* wrench = state + l.offset[VSC_STATE_WRENCHES];
   memset(wrench, 0, sizeof(mjtNum) * 6 * (size_t)m->nbody);
   int rigid = world->geom_count < it->world.count ? world->geom_count : it->world.count;
   for (int i = 0; i < rigid; ++i) {
-    const double* w = world->geom_wrench + 6 * i;
+    const double* w = reactions->geom_wrench + 6 * i;
     int g = it->world.ids[i], body = m->geom_bodyid[g];
     const mjtNum* com = d->xipos + 3 * body;
     double arm[3] = {it->world.geoms[i].position[0] - com[0], it->world.geoms[i].position[1] - com[1],
@@ -688,7 +689,7 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     int spheres = other->config.rod.collision_sphere_count;
     double* handed = it->handed + it->handed_offset[j];
     memset(handed, 0, sizeof(double) * 3 * (size_t)other->config.rod.control_count);
-    vsc_partner_add_load(other->rod, spheres, world->geoms + g, world->geom_wrench + 6 * g, handed);
+    vsc_partner_add_load(other->rod, spheres, world->geoms + g, reactions->geom_wrench + 6 * g, handed);
     memset(it->pressed + it->pressed_offset[j], 0, (size_t)(spheres - 1));
     it->handed_any[j] = 1;
     g += spheres - 1;
@@ -731,14 +732,15 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   clear_handed(m, it);
   if (restart_if_not_finite(m, it, instance, state)) return;
   const vsc_state_layout l = it->layout;
-  vsc_world world = gather(m, d, it, state, instance);
+  vsc_reactions reactions;
+  vsc_world world = gather(m, d, it, state, instance, &reactions);
   vsc_step_options step = it->config.step;
   step.substeps = step_substeps(m, it);
   vsc_step_report report = {0, 0};
-  vsc_status status = vsc_rod_step(it->rod, &world, state + l.offset[VSC_STATE_POSITIONS],
+  vsc_status status = vsc_rod_step(it->rod, &world, &reactions, state + l.offset[VSC_STATE_POSITIONS],
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],
                                    state + l.offset[VSC_STATE_REST], m->opt.timestep, &step, &report);
-  scatter(m, d, it, &world, state);
+  scatter(m, d, it, &world, &reactions, state);
   count_trouble(d, it, state, status, &report, step.substeps);
 }
 

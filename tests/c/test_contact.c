@@ -74,7 +74,8 @@ static void cached_lists_match_fresh_builds(void) {
     vsc_world world = {{0, 0, 0}, &tool, 1};
     memset(cached_force, 0, sizeof(cached_force));
     vsc_rod_update_spheres(cached, q, v);
-    vsc_step_context context = {cached, &world, NULL, 1.0, 1.0, NULL};
+    vsc_reactions none = {NULL, NULL};
+    vsc_step_context context = {cached, &world, &none, NULL, 1.0, 1.0, NULL};
     contacts += vsc_rod_add_contact_forces(&context, cached_force);
     vsc_rod* fresh = coiled_rod();
     memset(fresh_force, 0, sizeof(fresh_force));

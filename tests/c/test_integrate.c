@@ -47,7 +47,7 @@ static vsc_status bare_step(vsc_rod* rod, const vsc_world* world, double* q, dou
   options.substeps = substeps;
   options.retries = 0;
   options.energy_jump_ratio = 1e300;
-  return vsc_rod_step(rod, world, q, v, NULL, NULL, dt, &options, NULL);
+  return vsc_rod_step(rod, world, NULL, q, v, NULL, NULL, dt, &options, NULL);
 }
 
 // Relative energy change over 1 s of 2 ms steps split into `substeps`.
@@ -213,7 +213,7 @@ static void retry_recovers_with_more_substeps(void) {
   vsc_step_options options = vsc_default_step_options();
   options.integrator = VSC_INTEGRATOR_RK4;  // the driver's retries, for any integrator
   vsc_step_report report;
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, NULL, 0.002, &options, &report) == VSC_OK);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, NULL, 0.002, &options, &report) == VSC_OK);
   printf("  recovered after %d retries at %d substeps\n", report.retries, report.substeps);
   ENSURE(report.retries >= 1 && report.substeps == 1 << report.retries);
   memcpy(direct_q, q0, sizeof(q0)); memcpy(direct_v, v0, sizeof(v0));
@@ -240,7 +240,7 @@ static void energy_jump_is_caught(void) {
   vsc_step_options options = vsc_default_step_options();
   options.integrator = VSC_INTEGRATOR_RK4;
   options.retries = 0;
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, NULL, 0.002, &options, NULL) == VSC_ERROR_DIVERGED);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, NULL, 0.002, &options, NULL) == VSC_ERROR_DIVERGED);
   ENSURE(memcmp(q, q0, sizeof(q)) == 0);
   vsc_rod_destroy(rod);
 }
@@ -257,9 +257,9 @@ static void divergence_keeps_state_finite(void) {
   vsc_step_report report;
   vsc_step_options unknown = options;
   unknown.integrator = (vsc_integrator)VSC_INTEGRATOR_COUNT;  // no such integrator: refused, nothing moved
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, NULL, 0.002, &unknown, &report) == VSC_ERROR_INVALID_ARGUMENT);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, NULL, 0.002, &unknown, &report) == VSC_ERROR_INVALID_ARGUMENT);
   ENSURE(memcmp(q, q0, sizeof(q)) == 0);
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, NULL, 0.002, &options, &report) == VSC_ERROR_DIVERGED);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, NULL, 0.002, &options, &report) == VSC_ERROR_DIVERGED);
   ENSURE(report.retries == 2 && report.substeps == 4);
   ENSURE(memcmp(q, q0, sizeof(q)) == 0);
   for (int i = 0; i < 750; ++i) ENSURE(v[i] == 0.0);
@@ -309,7 +309,7 @@ static void push_out_is_not_a_divergence(void) {
     double fastest = 0.0;
     for (int step = 0; step < 50; ++step) {  // 0.1 s of 2 ms steps
       vsc_step_report report;
-      ENSURE(vsc_rod_step(rod, &world, q, v, stick, NULL, 0.002, &options, &report) == VSC_OK);
+      ENSURE(vsc_rod_step(rod, &world, NULL, q, v, stick, NULL, 0.002, &options, &report) == VSC_OK);
       ENSURE(report.retries == 0);
       for (int k = 0; k < 60; ++k) fastest = fmax(fastest, fabs(v[3 * k + 2]));
     }

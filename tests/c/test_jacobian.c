@@ -47,7 +47,7 @@ static void dense_jacobian(vsc_rod* rod, const vsc_world* world, const double* q
   double* band = calloc((size_t)SIZE * (w + 1), sizeof(double));
   double gradient[SIZE];
   double* forces = malloc(sizeof(double) * SIZE);
-  vsc_rod_forces(rod, world, q, q, forces);  // touch records (none here)
+  vsc_rod_forces(rod, world, NULL, q, q, forces);  // touch records (none here)
   vsc_rod_add_jacobian(rod, world, q, stiffness, damping, band, gradient);
   for (int i = 0; i < SIZE; ++i)
     for (int j = 0; j < SIZE; ++j) {
@@ -68,9 +68,9 @@ static void differenced(vsc_rod* rod, const vsc_world* world, const double* q, c
     memcpy(y, v, sizeof(y));
     double* moved = by_velocity ? y : x;
     moved[j] += eps;
-    vsc_rod_forces(rod, world, x, y, plus);
+    vsc_rod_forces(rod, world, NULL, x, y, plus);
     moved[j] -= 2.0 * eps;
-    vsc_rod_forces(rod, world, x, y, minus);
+    vsc_rod_forces(rod, world, NULL, x, y, minus);
     for (int i = 0; i < SIZE; ++i) dense[SIZE * i + j] = -(plus[i] - minus[i]) / (2.0 * eps);
   }
 }
@@ -103,7 +103,7 @@ static void stiffness_matches_differences(void) {
       q[3 * k + 1] = t == 0 ? 0.03 * sin(3.14159 * s) : 0.0;
       q[3 * k + 2] = 0.0;
     }
-    vsc_grasp grasp = {0.37, {0.2, 0.01, 0.02}, {0, 0, 0}, 500.0, 3.0, {0, 0, 0}};
+    vsc_grasp grasp = {0.37, {0.2, 0.01, 0.02}, {0, 0, 0}, 500.0, 3.0};
     vsc_world world = {{0, 0, -9.81}, NULL, 0};
     world.grasps = &grasp;
     world.grasp_count = 1;
@@ -135,7 +135,7 @@ static void stiffness_is_semidefinite(void) {
     double* band = calloc((size_t)SIZE * (w + 1), sizeof(double));
     double row[64];
     double forces[SIZE];
-    vsc_rod_forces(rod, &world, q, q, forces);
+    vsc_rod_forces(rod, &world, NULL, q, q, forces);
     vsc_rod_add_mass(rod, 1e-9, band);  // K alone, nudged off singular (rigid motions)
     vsc_rod_add_jacobian(rod, &world, q, 1e6, 0.0, band, NULL);
     ENSURE(vsc_band_wide_factor(band, SIZE, w, row) == VSC_OK);

@@ -119,7 +119,7 @@ static void gradient_matches_central_differences(void) {
     double q[36], v[36] = {0}, Q[36];
     crumpled(n, 4.0 / 1.1, q);
     vsc_world world = {{0, 0, 0}, NULL, 0};
-    vsc_rod_forces(rod, &world, q, v, Q);
+    vsc_rod_forces(rod, &world, NULL, q, v, Q);
     double scale = 0;
     for (int i = 0; i < 3 * n; ++i) scale = fabs(Q[i]) > scale ? fabs(Q[i]) : scale;
     ENSURE(scale > 1e-3);  // the configuration does load this term
@@ -148,12 +148,12 @@ static void free_fall_is_exact(void) {
   double start[3] = {0, 0, 1}, dir[3] = {1, 0.5, 0.2};
   vsc_layout_line(n, 4.0, start, dir, q);
   vsc_world world = {{0.3, -1.0, -9.81}, NULL, 0};
-  vsc_rod_acceleration(rod, &world, q, v, a);
+  vsc_rod_acceleration(rod, &world, NULL, q, v, a);
   for (int k = 0; k < n; ++k)
     for (int c = 0; c < 3; ++c) ENSURE_NEAR(a[3 * k + c], world.gravity[c], 1e-6 * 9.81);
   // crumpled: accelerations differ, but the centre of mass still falls at g
   crumpled(n, 4.0 / 1.1, q);
-  vsc_rod_forces(rod, &world, q, v, a);
+  vsc_rod_forces(rod, &world, NULL, q, v, a);
   double sum[3] = {0, 0, 0};
   for (int k = 0; k < n; ++k)
     for (int c = 0; c < 3; ++c) sum[c] += a[3 * k + c];
@@ -174,7 +174,7 @@ static void pinned_points_do_not_accelerate(void) {
   double start[3] = {0, 0, 1}, dir[3] = {1, 0, 0};
   vsc_layout_line(250, 4.0, start, dir, q);
   vsc_world world = {{0, 0, -9.81}, NULL, 0};
-  vsc_rod_acceleration(rod, &world, q, v, a);
+  vsc_rod_acceleration(rod, &world, NULL, q, v, a);
   ENSURE(a[2] == 0.0 && a[3 * 249 + 2] == 0.0);
   ENSURE_NEAR(a[3 * 125 + 2], -9.81, 1e-9);  // far from the pins: free fall at first
   ENSURE(a[3 * 1 + 2] < 0.0 && a[3 * 1 + 2] > -9.81 * 1.5);

@@ -98,7 +98,7 @@ static int asleep_count(const double* rest, const vsc_step_options* o) {
 static void settle(vsc_rod* rod, vsc_world* world, double* q, double* v, double* stick, double* rest,
                    const vsc_step_options* o) {
   for (int step = 0; step < 1500 && asleep_count(rest, o) < N; ++step)
-    ENSURE(vsc_rod_step(rod, world, q, v, stick, rest, DT, o, NULL) == VSC_OK);
+    ENSURE(vsc_rod_step(rod, world, NULL, q, v, stick, rest, DT, o, NULL) == VSC_OK);
   ENSURE(asleep_count(rest, o) == N);
 }
 
@@ -125,7 +125,7 @@ static void lie_down(bed* b) {
 
 // One step of the bed's rod under `o` (NULL: the bed's options).
 static vsc_status step_bed(bed* b, const vsc_step_options* o) {
-  return vsc_rod_step(b->rod, &b->world, b->q, b->v, b->stick, b->rest, DT, o ? o : &b->options, NULL);
+  return vsc_rod_step(b->rod, &b->world, NULL, b->q, b->v, b->stick, b->rest, DT, o ? o : &b->options, NULL);
 }
 
 static void a_resting_rod_sleeps_where_it_lies(void) {
@@ -146,7 +146,7 @@ static void a_resting_rod_sleeps_where_it_lies(void) {
   ENSURE(step_bed(&b, NULL) == VSC_OK);
   double a[3 * N];
   vsc_world no_floor = {{0, 0, -9.81}, NULL, 0};
-  vsc_rod_acceleration(b.rod, &no_floor, b.q, b.v, a);
+  vsc_rod_acceleration(b.rod, &no_floor, NULL, b.q, b.v, a);
   ENSURE_NEAR(a[3 * (N / 2) + 2], -9.81, 0.5);
   vsc_rod_destroy(b.rod);
 }
@@ -174,7 +174,7 @@ static double ball_run(const double from[3], const double to[3], int steps, int 
       velocity[c] = step < steps ? (to[c] - from[c]) / (steps * DT) : 0.0;
     }
     geoms[1] = moving(VSC_GEOM_SPHERE, size, position, velocity, 0.5);
-    ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
+    ENSURE(vsc_rod_step(rod, &world, NULL, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
     vsc_deepest_contact deepest;
     vsc_world ball_only = {{0, 0, 0}, geoms + 1, 1};
     vsc_rod_contact_energy(rod, &ball_only, q, &deepest);
@@ -239,7 +239,7 @@ static void follows_a_sinking_support(double speed) {
     double sunk = speed * step * DT < drop ? speed * step * DT : drop;
     double position[3] = {0.5, 0.0, 0.05 - sunk};
     geoms[1] = moving(VSC_GEOM_BOX, size, position, sunk < drop ? velocity : still, 0.5);
-    ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
+    ENSURE(vsc_rod_step(rod, &world, NULL, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
     for (int k = 0; k < N && sunk < drop; ++k)
       if (q[3 * k + 2] - (0.1 - sunk) < lowest_gap) lowest_gap = q[3 * k + 2] - (0.1 - sunk);
   }
@@ -282,7 +282,7 @@ static double sag_into_a_gap(int sleep, double* q_out) {
   for (int step = 0; step < 2500; ++step) {
     double position[3] = {0.5, 0.0, 0.1 - 0.2 * step * DT};
     geoms[2] = moving(VSC_GEOM_BOX, middle, position, velocity, 0.5);
-    ENSURE(vsc_rod_step(rod, &world, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
+    ENSURE(vsc_rod_step(rod, &world, NULL, q, v, stick, rest, DT, &o, NULL) == VSC_OK);
   }
   memcpy(q_out, q, sizeof(q));
   vsc_basis half = vsc_spline_basis(N, 0.5);
@@ -310,7 +310,7 @@ static void a_jaw_wakes_what_it_holds(void) {
   static bed b;
   lie_down(&b);
   // a jaw takes the middle and lifts it at 0.1 m/s for 0.3 s
-  vsc_grasp grasp = {0.5, {0.5, 0.0, RADIUS}, {0.0, 0.0, 0.1}, 1000.0, 2.0, {0, 0, 0}};
+  vsc_grasp grasp = {0.5, {0.5, 0.0, RADIUS}, {0.0, 0.0, 0.1}, 1000.0, 2.0};
   b.world.grasps = &grasp;
   b.world.grasp_count = 1;
   for (int step = 0; step < 150; ++step) {
@@ -331,9 +331,9 @@ static void sleeping_needs_the_lumped_matrix_and_an_explicit_step(void) {
   vsc_world world = {{0, 0, -9.81}, NULL, 0};
   vsc_step_options o = sleeping_options();
   o.integrator = VSC_INTEGRATOR_IMPLICIT;
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, rest, DT, &o, NULL) == VSC_ERROR_INVALID_ARGUMENT);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, rest, DT, &o, NULL) == VSC_ERROR_INVALID_ARGUMENT);
   o.integrator = VSC_INTEGRATOR_RK4;
-  ENSURE(vsc_rod_step(rod, &world, q, v, NULL, rest, DT, &o, NULL) == VSC_OK);
+  ENSURE(vsc_rod_step(rod, &world, NULL, q, v, NULL, rest, DT, &o, NULL) == VSC_OK);
   vsc_rod_destroy(rod);
   vsc_rod_def def = vsc_default_rod_def();
   def.lumped_mass = 0;
@@ -343,7 +343,7 @@ static void sleeping_needs_the_lumped_matrix_and_an_explicit_step(void) {
   double* big_rest = calloc(VSC_REST_SIZE * (size_t)def.control_count, sizeof(double));
   for (int k = 0; k < def.control_count; ++k) big_q[3 * k] = def.length * k / (def.control_count - 1);
   o.integrator = VSC_INTEGRATOR_LEAPFROG;
-  ENSURE(vsc_rod_step(rod, &world, big_q, big_v, NULL, big_rest, DT, &o, NULL) == VSC_ERROR_INVALID_ARGUMENT);
+  ENSURE(vsc_rod_step(rod, &world, NULL, big_q, big_v, NULL, big_rest, DT, &o, NULL) == VSC_ERROR_INVALID_ARGUMENT);
   free(big_q);
   free(big_v);
   free(big_rest);

@@ -223,10 +223,11 @@ static void push(pass* p, const found_contact* found) {
                                   elongation, f, tangent);
     if (normal <= 0.0) return;
     vsc_place_add_at_sphere(rod, a, f, p->Q);
-    if (p->world->geom_wrench) {
+    double* geom_wrench = p->context->reactions->geom_wrench;
+    if (geom_wrench) {
       double arm[3] = {found->point[0] - geom->position[0], found->point[1] - geom->position[1],
                        found->point[2] - geom->position[2]};
-      vsc_wrench_add(p->world->geom_wrench + 6 * b, -p->context->wrench_weight, f, NULL, arm);
+      vsc_wrench_add(geom_wrench + 6 * b, -p->context->wrench_weight, f, NULL, arm);
     }
     vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
                      0.0, 0.0);

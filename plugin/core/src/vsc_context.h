@@ -10,7 +10,8 @@
 
 typedef struct vsc_step_context {
   vsc_rod* rod;
-  const vsc_world* world;  ///< the host's inputs and where reactions go
+  const vsc_world* world;  ///< the host's inputs (read only)
+  const vsc_reactions* reactions;  ///< where the reactions go (never NULL; its members may be)
   double* stick;           ///< friction state, VSC_STICK_SIZE per sphere (NULL: none; vsc_friction.h)
   double dt;               ///< the whole step (s)
   double wrench_weight;    ///< weight of the current evaluation's reactions: its share of dt, so the

@@ -8,8 +8,9 @@
 void vsc_rod_add_grasp_forces(const vsc_step_context* context, const double* q, const double* v, double* Q) {
   const vsc_rod* rod = context->rod;
   const vsc_world* world = context->world;
+  double* reaction = context->reactions->grasp_force;
   for (int g = 0; g < world->grasp_count; ++g) {
-    vsc_grasp* grasp = &world->grasps[g];
+    const vsc_grasp* grasp = &world->grasps[g];
     vsc_basis basis = vsc_spline_basis(rod->n, grasp->abscissa);
     double position[3], velocity[3], force[3];
     vsc_basis_point(&basis, q, position);
@@ -17,7 +18,7 @@ void vsc_rod_add_grasp_forces(const vsc_step_context* context, const double* q, 
     for (int c = 0; c < 3; ++c) {
       force[c] = grasp->stiffness * (grasp->anchor[c] - position[c]) +
                  grasp->damping * (grasp->anchor_velocity[c] - velocity[c]);
-      grasp->reaction[c] -= context->wrench_weight * force[c];
+      if (reaction) reaction[3 * g + c] -= context->wrench_weight * force[c];
     }
     for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j)
       for (int c = 0; c < 3; ++c) Q[3 * (basis.first + j) + c] += basis.weight[j] * force[c];

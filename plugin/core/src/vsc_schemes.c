@@ -123,16 +123,18 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
   const vsc_rod* rod = context->rod;
   const vsc_world* world = context->world;
   double weight = context->wrench_weight;
-  for (int g = 0; g < world->grasp_count; ++g) {
-    vsc_grasp* grasp = &world->grasps[g];
+  double* reaction = context->reactions->grasp_force;
+  for (int g = 0; g < world->grasp_count && reaction; ++g) {
+    const vsc_grasp* grasp = &world->grasps[g];
     vsc_basis b = vsc_spline_basis(rod->n, grasp->abscissa);
     double moved[3], accelerated[3];
     vsc_basis_point(&b, dq, moved);
     vsc_basis_point(&b, dv, accelerated);
     for (int c = 0; c < 3; ++c)  // the rod's force changed by -k dP - c dV; the anchor's opposite
-      grasp->reaction[c] += weight * (grasp->stiffness * moved[c] + grasp->damping * accelerated[c]);
+      reaction[3 * g + c] += weight * (grasp->stiffness * moved[c] + grasp->damping * accelerated[c]);
   }
-  if (!world->geom_wrench) return;
+  double* geom_wrench = context->reactions->geom_wrench;
+  if (!geom_wrench) return;
   double normal[3], k = rod->def.contact_stiffness, c = rod->def.contact_damping;
   for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0; ++i) {
     int geom = vsc_rod_rigid_touch(rod, i, normal);
@@ -148,7 +150,7 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
     const double* p = world->geoms[geom].position;
     double r = rod->sphere_radius[i];
     double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
-    vsc_wrench_add(world->geom_wrench + 6 * geom, -weight, f, NULL, arm);
+    vsc_wrench_add(geom_wrench + 6 * geom, -weight, f, NULL, arm);
   }
 }
 

@@ -26,10 +26,11 @@ static int state_is_sane(const double* q, const double* v, int size) {
   return 1;
 }
 
-static void clear_reactions(const vsc_world* world) {
-  if (world->geom_wrench) memset(world->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
-  for (int g = 0; g < world->grasp_count; ++g)
-    world->grasps[g].reaction[0] = world->grasps[g].reaction[1] = world->grasps[g].reaction[2] = 0.0;
+static void clear_reactions(const vsc_step_context* context) {
+  const vsc_reactions* r = context->reactions;
+  const vsc_world* world = context->world;
+  if (r->geom_wrench) memset(r->geom_wrench, 0, sizeof(double) * 6 * (size_t)world->geom_count);
+  if (r->grasp_force) memset(r->grasp_force, 0, sizeof(double) * 3 * (size_t)world->grasp_count);
 }
 
 // The divergence guard: a step diverged if the rod's mechanical energy grew
@@ -83,7 +84,7 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
   vsc_rod* rod = context->rod;
   int size = 3 * rod->n;
   double h = context->dt / (double)substeps;
-  clear_reactions(context->world);
+  clear_reactions(context);
   for (int s = 0; s < substeps; ++s) {
     context->unseen = NULL;
     context->substep = h;
@@ -94,18 +95,24 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
   return 1;
 }
 
-static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
-                       double dt, const vsc_step_options* options, vsc_step_report* report);
+static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
+                       double* stick, double* rest, double dt, const vsc_step_options* options,
+                       vsc_step_report* report);
 
-vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
-                        double dt, const vsc_step_options* options, vsc_step_report* report) {
-  vsc_status status = step(rod, world, q, v, stick, rest, dt, options, report);
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
+                        double* stick, double* rest, double dt, const vsc_step_options* options,
+                        vsc_step_report* report) {
+  vsc_reactions none = {NULL, NULL};
+  vsc_status status = step(rod, world, reactions ? reactions : &none, q, v, stick, rest, dt, options, report);
   vsc_sleep_end(rod);  // the flags are this step's: a lone evaluation after it sees every point awake
   return status;
 }
 
-static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
-                       double dt, const vsc_step_options* options, vsc_step_report* report) {
+static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
+                       double* stick, double* rest, double dt, const vsc_step_options* options,
+                       vsc_step_report* report) {
+  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0};
+  clear_reactions(&context);  // overwritten whatever the step does, even refused
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
       !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
@@ -114,7 +121,6 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* 
   if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||
                    !(o.sleep.rest_speed >= 0.0) || !(o.sleep.rest_time > 0.0)))
     return VSC_ERROR_INVALID_ARGUMENT;
-  vsc_step_context context = {rod, world, stick, dt, 0.0, NULL, 0.0};
   if (report) {
     report->retries = 0;
     report->substeps = 0;
@@ -122,7 +128,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* 
   // sleeping points held still; a rod asleep everywhere only feels moving bodies, unless they wake it
   int asleep = vsc_sleep_begin(rod, sleeping ? &o.sleep : NULL, q, rest, v);
   if (asleep == rod->n) {
-    clear_reactions(world);
+    clear_reactions(&context);
     if (vsc_sleep_rest(&context, &o.sleep, q, rest)) return VSC_OK;
     vsc_sleep_begin(rod, &o.sleep, q, rest, v);
   }
@@ -165,6 +171,6 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, double* q, double* 
   memset(v, 0, sizeof(double) * size);
   if (!state_is_sane(q, v, size)) memset(q, 0, sizeof(double) * size);
   if (stick) vsc_stick_clear(stick, spheres);
-  clear_reactions(world);
+  clear_reactions(&context);
   return VSC_ERROR_DIVERGED;
 }

@@ -12,14 +12,13 @@
 
 #include "viscera/vsc_rod.h"
 
-/// One held point. Host-owned; the rod reads it and adds to `reaction`.
+/// One held point. Host-owned and read only (its reaction goes to vsc_reactions.grasp_force).
 typedef struct vsc_grasp {
   double abscissa;            ///< parametric abscissa s of the held point, in [0, 1]
   double anchor[3];           ///< where the jaw holds it (m, world frame)
   double anchor_velocity[3];  ///< the anchor's velocity (m/s)
   double stiffness;           ///< spring stiffness k (N/m, >= 0)
   double damping;             ///< spring damping c (N s/m, >= 0)
-  double reaction[3];         ///< output: force on the anchor (N), added over a step's evaluations as their average
 } vsc_grasp;
 
 /// The axis point nearest to `point` (m): writes its abscissa s in [0, 1] and

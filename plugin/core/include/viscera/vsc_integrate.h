@@ -79,11 +79,11 @@ typedef struct vsc_step_report {
 /// Advance q (m), v (m/s), the friction state `stick` (VSC_STICK_SIZE per
 /// sphere, may be NULL) and the rest records `rest` (VSC_REST_SIZE per control
 /// point, may be NULL: none sleeps; see vsc_sleep.h) in place by one step dt (s) of options->substeps
-/// substeps. The world (geom poses, grasp anchors) is frozen over dt. If
-/// world->geom_wrench is set it receives (overwritten, not added) the reaction
-/// on each geom averaged over dt, and each grasp's `reaction` likewise: the
-/// impulse the geoms receive is the one the rod gave (for the implicit
-/// integrator, its linearised forces at the step end).
+/// substeps. The world (geom poses, grasp anchors) is frozen over dt and only
+/// read. `reactions` (NULL: not wanted) receives, overwritten, the reaction on
+/// each geom and each grasp's anchor averaged over dt: the impulse the geoms
+/// receive is the one the rod gave (for the implicit integrator, its
+/// linearised forces at the step end).
 ///
 /// Divergence: a substep diverges when the state becomes non-finite or faster
 /// than VSC_DIVERGED_SPEED, or its factorisation fails; a step diverges when
@@ -104,7 +104,8 @@ typedef struct vsc_step_report {
 /// everywhere only looks for its contacts with moving bodies' geoms, pushes
 /// them, and returns unless one wakes it. VSC_ERROR_INVALID_ARGUMENT if
 /// sleeping is asked of the consistent mass matrix or the implicit integrator.
-vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, double* q, double* v, double* stick, double* rest,
-                        double dt, const vsc_step_options* options, vsc_step_report* report);
+vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
+                        double* stick, double* rest, double dt, const vsc_step_options* options,
+                        vsc_step_report* report);
 
 #endif  // VISCERA_VSC_INTEGRATE_H
