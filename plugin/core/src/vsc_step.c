@@ -127,8 +127,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
   }
   // sleeping points held still; a rod asleep everywhere only feels moving bodies, unless they wake it
   int asleep = vsc_sleep_begin(rod, sleeping ? &o.sleep : NULL, q, rest, v);
-  if (asleep == rod->n) {
-    clear_reactions(&context);
+  if (asleep == rod->n) {  // (the reactions were cleared above; only moving geoms push it)
     if (vsc_sleep_rest(&context, &o.sleep, q, rest)) return VSC_OK;
     vsc_sleep_begin(rod, &o.sleep, q, rest, v);
   }
