@@ -405,34 +405,11 @@ int vsc_plugin_config_check_timestep(const vsc_plugin_config* c, double dt, char
 int vsc_plugin_config_substeps(const vsc_plugin_config* c, double elastic, double contact, double contact_damping_rate,
                                double dt) {
   if (!c->auto_substeps) return c->step.substeps;
-  double share = c->receives_loads ? 2.0 : 1.0;  // see config.h
-  int stable = vsc_stable_substeps(c->step.integrator, share * elastic, share * contact, share * contact_damping_rate, dt);
+  int stable = vsc_stable_substeps(c->step.integrator, elastic, contact, contact_damping_rate, dt);
   if (!c->given[VSC_KEY_tolerance]) return stable;
   double accurate = vsc_resolution_substeps(&c->resolution, dt);
   if (accurate > VSC_MAX_AUTO_SUBSTEPS) accurate = VSC_MAX_AUTO_SUBSTEPS;  // a timestep raised after load
   return accurate > stable ? (int)accurate : stable;
-}
-
-static int excluded(const int* ids, int count, int id) {
-  for (int i = 0; i < count; ++i)
-    if (ids[i] == id) return 1;
-  return 0;
-}
-
-// 1 if instance `other`'s 'exclude' names instance `instance` (its text: its config is not read yet).
-static int names_instance(const mjModel* m, int other, int instance) {
-  const char* text = mj_getPluginConfig(m, other, "exclude");
-  const char* name = mj_id2name(m, mjOBJ_PLUGIN, instance);
-  if (!text || !name) return 0;
-  size_t length = strlen(name);
-  for (const char* p = text; *p;) {
-    while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') ++p;
-    size_t word = 0;
-    while (p[word] && p[word] != ' ' && p[word] != '\t' && p[word] != '\n' && p[word] != '\r') ++word;
-    if (word == length && strncmp(p, name, length) == 0) return 1;
-    p += word;
-  }
-  return 0;
 }
 
 // 'exclude': other intestine instances of the model, by name.
@@ -450,10 +427,6 @@ static int read_excluded(reader* r, vsc_plugin_config* c) {
       return fail(r, "attribute 'exclude' = '%s' names this instance itself (its self-collision is 'self_collision')",
                   raw(r, "exclude"));
   }
-  c->receives_loads = 0;  // a lower instance that neither excludes computes their contacts (partners.h)
-  for (int j = 0; j < r->instance && !c->receives_loads; ++j)
-    c->receives_loads = r->m->plugin[j] == slot && !excluded(c->exclude, c->exclude_count, j) &&
-                        !names_instance(r->m, j, r->instance);
   return 0;
 }
 

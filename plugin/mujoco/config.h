@@ -131,8 +131,6 @@ typedef struct vsc_plugin_config {
   vsc_damage_limits damage;   ///< where the wall perforates, bruises and tears
   int exclude[VSC_MAX_EXCLUDED];  ///< plugin instance ids of the intestines it does not collide with
   int exclude_count;
-  int receives_loads;         ///< 1: a lower intestine instance collides with it, so it feels their
-                              ///< contacts as loads held over its steps (partners.h; vsc_plugin_config_substeps)
   unsigned char given[VSC_KEY_COUNT];  ///< 1 where the model gave the key (by VSC_KEY_ index)
 } vsc_plugin_config;
 
@@ -157,11 +155,7 @@ int vsc_plugin_config_check_timestep(const vsc_plugin_config* config, double dt,
 /// stability estimate allows (vsc_stable_substeps with the rod's elastic and
 /// contact frequencies, rad/s, and contact damping rate, 1/s), and with a
 /// 'tolerance' at least those that keep its accuracy (vsc_resolution_substeps).
-/// An instance that receives loads counts its frequencies and damping rate
-/// twice: that load is explicit at dt whatever the substeps, and takes the rest
-/// of the explicit bound (a colon at omega dt = 1.02 under the small bowel's
-/// loops flipped its points' velocity every step and never slept; at half
-/// that, with 2 substeps, it sleeps). With 'substeps' given, that value.
+/// With 'substeps' given, that value.
 int vsc_plugin_config_substeps(const vsc_plugin_config* config, double elastic, double contact,
                                double contact_damping_rate, double dt);
 
