@@ -57,7 +57,7 @@ static void ordinary_contacts_are_untouched(void) {
   vsc_rod* rod = rod_of(40, 81);
   for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, rod->def.contact_stiffness);
   ENSURE(vsc_contact_load_limit_damping(rod, 0.002 / 3.0) == 0);
-  for (int s = 0; s < 81; ++s) ENSURE(rod->contact_load[s] == 0.0);
+  for (int s = 0; s < 81; ++s) ENSURE(rod->work.contact_load[s] == 0.0);
   vsc_rod_destroy(rod);
 }
 
@@ -74,7 +74,7 @@ static void a_squeezed_pile_is_limited_to_the_bound(void) {
   ENSURE(vsc_contact_load_last_bound(rod) > VSC_CONTACT_DAMPING_LIMIT);
   double worst = 0.0, unscaled = 0.0;
   for (int k = 0; k < 40; ++k) {
-    double b = bound_at(rod, load, rod->damping_scale, k, h);
+    double b = bound_at(rod, load, rod->work.damping_scale, k, h);
     worst = b > worst ? b : worst;
     double u = bound_at(rod, load, NULL, k, h);
     unscaled = u > unscaled ? u : unscaled;
@@ -82,8 +82,8 @@ static void a_squeezed_pile_is_limited_to_the_bound(void) {
   ENSURE_NEAR(unscaled, vsc_contact_load_last_bound(rod), 1e-9 * unscaled);
   ENSURE(worst <= VSC_CONTACT_DAMPING_LIMIT * (1.0 + 1e-12));
   ENSURE(worst >= 0.5 * VSC_CONTACT_DAMPING_LIMIT);  // limited to the bound, not far below it
-  for (int s = 30; s <= 36; ++s) ENSURE(rod->damping_scale[s] > 0.0 && rod->damping_scale[s] < 1.0);
-  ENSURE(rod->damping_scale[70] == 1.0);
+  for (int s = 30; s <= 36; ++s) ENSURE(rod->work.damping_scale[s] > 0.0 && rod->work.damping_scale[s] < 1.0);
+  ENSURE(rod->work.damping_scale[70] == 1.0);
   vsc_rod_destroy(rod);
 }
 

@@ -80,13 +80,13 @@ static inline __attribute__((always_inline)) double contact_force(const vsc_rod*
 
 // Room for `more` found contacts; 0 if the buffer cannot grow.
 static int reserve(vsc_rod* rod, int more) {
-  if (rod->found_count + more <= rod->found_capacity) return 1;
-  int capacity = rod->found_capacity > 0 ? rod->found_capacity : 256;
-  while (capacity < rod->found_count + more) capacity *= 2;
-  found_contact* grown = (found_contact*)realloc(rod->found, sizeof(found_contact) * (size_t)capacity);
+  if (rod->work.found_count + more <= rod->work.found_capacity) return 1;
+  int capacity = rod->work.found_capacity > 0 ? rod->work.found_capacity : 256;
+  while (capacity < rod->work.found_count + more) capacity *= 2;
+  found_contact* grown = (found_contact*)realloc(rod->work.found, sizeof(found_contact) * (size_t)capacity);
   if (!grown) return 0;
-  rod->found = grown;
-  rod->found_capacity = capacity;
+  rod->work.found = grown;
+  rod->work.found_capacity = capacity;
   return 1;
 }
 
@@ -105,8 +105,8 @@ static void keep(pass* p, found_contact* found) {
     vsc_contact_load_add(rod, found->b, twice_k * (1.0 - found->t));
     vsc_contact_load_add(rod, found->b + 1, twice_k * found->t);
   }
-  if (rod->found && found == (found_contact*)rod->found + rod->found_count)
-    ++rod->found_count;
+  if (rod->work.found && found == (found_contact*)rod->work.found + rod->work.found_count)
+    ++rod->work.found_count;
   else
     push(p, found);
 }
@@ -114,15 +114,15 @@ static void keep(pass* p, found_contact* found) {
 // Where the next found contact is built: the buffer's next slot, or `spare`.
 static found_contact* next_slot(pass* p, found_contact* spare) {
   vsc_rod* rod = p->rod;
-  return rod->found_count < rod->found_capacity || reserve(rod, 1) ? (found_contact*)rod->found + rod->found_count
+  return rod->work.found_count < rod->work.found_capacity || reserve(rod, 1) ? (found_contact*)rod->work.found + rod->work.found_count
                                                                    : spare;
 }
 
 // 1 if segment a's and segment b's four spheres all sleep deep: their contact cannot change
 // and no point whose forces are watched feels it.
 static inline int segments_asleep(const vsc_rod* rod, int a, int b) {
-  const unsigned char* asleep = rod->sphere_asleep;
-  return rod->asleep_count > 0 && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
+  const unsigned char* asleep = rod->work.sphere_asleep;
+  return rod->work.asleep_count > 0 && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
 }
 
 static void self_pair(void* context, int earlier, int item) {
@@ -131,7 +131,7 @@ static void self_pair(void* context, int earlier, int item) {
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
   if (segments_asleep(rod, a, b)) return;
-  const double *x = rod->sphere_xyz, *v = rod->sphere_velocity;
+  const double *x = rod->work.sphere_xyz, *v = rod->work.sphere_velocity;
   if (p->segment) {
     // testing every pair (no lists): a cheap exact rejection first, segments within
     // 2r of each other have midpoints within 2r + half of each length (the lists'
@@ -176,9 +176,9 @@ static void sphere_geom(void* context, int i) {
   vsc_rod* rod = p->rod;
   const vsc_geom* geom = &p->world->geoms[p->geom];
   // a sleeping sphere on a static geom stays as it was; a moving body's geom still pushes it
-  if (rod->asleep_count > 0 && rod->sphere_asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
+  if (rod->work.asleep_count > 0 && rod->work.sphere_asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
   double r = rod->sphere_radius[i];
-  const double* x = rod->sphere_xyz + 3 * i;
+  const double* x = rod->work.sphere_xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
     double reach = geom->bound_radius + r;
@@ -202,7 +202,7 @@ static void sphere_geom(void* context, int i) {
   }
   double geom_velocity[3];
   vsc_geom_point_velocity(geom, found->point, geom_velocity);
-  const double* v = rod->sphere_velocity + 3 * i;
+  const double* v = rod->work.sphere_velocity + 3 * i;
   for (int c = 0; c < 3; ++c) found->relative[c] = v[c] - geom_velocity[c];
   keep(p, found);
 }
@@ -229,7 +229,7 @@ static void push(pass* p, const found_contact* found) {
                        found->point[2] - geom->position[2]};
       vsc_wrench_add(geom_wrench + 6 * b, -p->context->wrench_weight, f, NULL, arm);
     }
-    vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
+    vsc_record_touch(rod->work.touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
                      0.0, 0.0);
     ++p->contacts;
     return;
@@ -254,7 +254,7 @@ static void push(pass* p, const found_contact* found) {
   vsc_place_add_at_sphere(rod, b, share, p->Q);
   for (int k = 0; k < 3; ++k) share[k] = -t * f[k];
   vsc_place_add_at_sphere(rod, b + 1, share, p->Q);
-  vsc_record_touch(rod->touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
+  vsc_record_touch(rod->work.touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
   ++p->contacts;
 }
 
@@ -268,7 +268,7 @@ static void find_contacts(pass* p) {
   vsc_rod* rod = p->rod;
   const vsc_world* world = p->world;
   int spheres = rod->def.collision_sphere_count;
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   if (!vsc_contact_lists_refresh(rod, world)) {  // a list overflowed: this evaluation tests everything directly
     if (rod->def.self_collision) vsc_contact_lists_update_segments(rod);
     p->segment = l->segment;
@@ -281,7 +281,7 @@ static void find_contacts(pass* p) {
     return;
   }
   reserve(rod, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
-  int all_asleep = rod->asleep_count == rod->n;  // then only moving bodies' geoms can touch it
+  int all_asleep = rod->work.asleep_count == rod->n;  // then only moving bodies' geoms can touch it
   if (rod->def.self_collision && !all_asleep) {
     double contact = 2.0 * rod->radius_max * SKIP_SLACK;
     const double* moved = l->segment_moved;
@@ -307,19 +307,19 @@ int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
   vsc_rod* rod = context->rod;
   pass p = {context, rod, context->world, Q, 0, -1, NULL, NULL};
   vsc_touch_clear(rod);
-  rod->found_count = 0;
+  rod->work.found_count = 0;
   find_contacts(&p);
   // in a step, the damping limited where it adds up past its explicit limit (none in a lone evaluation)
-  if (vsc_contact_load_limit_damping(rod, context->substep)) p.damping_scale = rod->damping_scale;
-  const found_contact* found = (const found_contact*)rod->found;
-  for (int k = 0; k < rod->found_count; ++k) push(&p, &found[k]);
+  if (vsc_contact_load_limit_damping(rod, context->substep)) p.damping_scale = rod->work.damping_scale;
+  const found_contact* found = (const found_contact*)rod->work.found;
+  for (int k = 0; k < rod->work.found_count; ++k) push(&p, &found[k]);
   return p.contacts;
 }
 
 void vsc_rod_visit_contacts(const vsc_rod* rod,
                             void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data) {
-  const found_contact* found = (const found_contact*)rod->found;
-  for (int k = 0; k < rod->found_count; ++k) {
+  const found_contact* found = (const found_contact*)rod->work.found;
+  for (int k = 0; k < rod->work.found_count; ++k) {
     const double* r = found[k].relative;
     visit(data, found[k].rigid, found[k].a, found[k].b, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), found[k].depth);
   }
@@ -336,7 +336,7 @@ static double spring_energy(const vsc_rod* rod, double depth, double radius) {
 static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int g, int i, vsc_deepest_contact* deepest) {
   const vsc_geom* geom = &world->geoms[g];
   double r = rod->sphere_radius[i], n[3];
-  const double* x = rod->sphere_xyz + 3 * i;
+  const double* x = rod->work.sphere_xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
     double reach = geom->bound_radius + r;
@@ -355,7 +355,7 @@ static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int
 static double self_pair_energy(const vsc_rod* rod, int a, int b) {
   if (b - a < rod->self_gap) return 0.0;
   double s, t, d[3];
-  double distance = vsc_segment_gap(rod->sphere_xyz, a, b, &s, &t, d);
+  double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &s, &t, d);
   double ra = rod->def.radius, rb = ra;
   if (rod->tapered) {
     const double* R = rod->sphere_radius;
@@ -373,7 +373,7 @@ double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double
   if (world->geom_count <= 0 && !rod->def.self_collision) return 0.0;
   int spheres = rod->def.collision_sphere_count;
   vsc_rod_update_spheres(rod, q, NULL);
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   // the same candidate lists as the forces (rebuilt here if stale), so the
   // energy costs one narrow phase; the touch records are left alone
   int listed = vsc_contact_lists_refresh(rod, world);

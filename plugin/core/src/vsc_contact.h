@@ -12,7 +12,7 @@
 /// limited where contacts pile up past its explicit limit (vsc_contact_load.h).
 /// The spheres and their velocities must be placed (vsc_place.h). Returns the
 /// number of contacts.
-/// Where control points sleep (rod->asleep_count > 0), the pairs that cannot
+/// Where control points sleep (rod->work.asleep_count > 0), the pairs that cannot
 /// matter are not looked for: a sphere asleep deep against a static geom, and
 /// two segments whose four spheres all sleep deep (vsc_rod.h); a rod asleep
 /// everywhere looks at moving bodies' geoms only.

@@ -124,9 +124,9 @@ typedef struct build {
 // others cannot touch before the lists are rebuilt; overlapping grid boxes alone
 // admit several times more pairs.
 static void keep_self(build* b, int lo, int hi) {
-  vsc_contact_lists* l = b->rod->lists;
+  vsc_contact_lists* l = b->rod->work.lists;
   double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->radius_max;
-  double distance = vsc_segment_gap(b->rod->sphere_xyz, lo, hi, &s, &t, d);
+  double distance = vsc_segment_gap(b->rod->work.sphere_xyz, lo, hi, &s, &t, d);
   if (distance > limit) return;
   if (l->self_count >= l->self_capacity) {
     b->overflow = 1;
@@ -155,8 +155,8 @@ static double filter_distance(const vsc_geom* geom, const double* x) {
 
 static void collect_geom(void* context, int i) {
   build* b = (build*)context;
-  vsc_contact_lists* l = b->rod->lists;
-  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->sphere_xyz + 3 * i);
+  vsc_contact_lists* l = b->rod->work.lists;
+  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->work.sphere_xyz + 3 * i);
   if (distance > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;
@@ -176,12 +176,12 @@ static void collect_geom(void* context, int i) {
 // geom moves less than m / 2 from here: it stays beyond r. The same bound keeps the skip filter
 // of a stored distance less the sphere's motion since the snapshot valid.
 static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int count) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   const vsc_geom* geom = &world->geoms[g];
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, reach = r + margin;
   for (int i = 0; i < spheres; ++i) {
-    const double* x = rod->sphere_xyz + 3 * i;
+    const double* x = rod->work.sphere_xyz + 3 * i;
     double widened = reach + l->geom_moved[i];
     if (geom->bound_radius > 0.0) {  // the box test of a whole build, widened alike
       double w = r + 0.5 * margin + l->geom_moved[i];
@@ -205,7 +205,7 @@ static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int c
 // list's order (geom, then sphere): what a whole build would test, found in the same
 // order. Returns 0 if the list overflowed.
 static int rebuild_stale_geoms(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   int count = 0, k = 0;
   for (int g = 0; g < world->geom_count; ++g) {
     int first = k;
@@ -235,9 +235,9 @@ static int rebuild_stale_geoms(vsc_rod* rod, const vsc_world* world) {
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
 
 void vsc_contact_lists_update_segments(vsc_rod* rod) {
-  const double* x = rod->sphere_xyz;
+  const double* x = rod->work.sphere_xyz;
   for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a) {
-    double* out = rod->lists->segment + 4 * a;
+    double* out = rod->work.lists->segment + 4 * a;
     double length2 = 0.0;
     for (int c = 0; c < 3; ++c) {
       out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
@@ -252,7 +252,7 @@ void vsc_contact_lists_update_segments(vsc_rod* rod) {
 // to DIRECT_BUILD_SPHERES this costs a fraction of a grid pass, whose cells at
 // the pair reach hold dozens of segments in a pile.
 static void build_self_direct(vsc_rod* rod, build* b) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   vsc_contact_lists_update_segments(rod);
   int segments = rod->def.collision_sphere_count - 1;
   double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->radius_max;
@@ -283,7 +283,7 @@ static void build_self_direct(vsc_rod* rod, build* b) {
 // The self pairs: segments within 2r + m, with their distances. Returns 0 if
 // the list overflowed (the caller then evaluates without lists).
 static int build_self(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
@@ -294,25 +294,25 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
     double longest = 0.0;
     for (int k = 0; k + 1 < spheres; ++k)
       for (int a = 0; a < 3; ++a)
-        longest = fmax(longest, fabs(rod->sphere_xyz[3 * k + 3 + a] - rod->sphere_xyz[3 * k + a]));
-    vsc_grid_begin(rod->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+        longest = fmax(longest, fabs(rod->work.sphere_xyz[3 * k + 3 + a] - rod->work.sphere_xyz[3 * k + a]));
+    vsc_grid_begin(rod->work.grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
     for (int k = 0; k + 1 < spheres; ++k) {
-      const double* x0 = rod->sphere_xyz + 3 * k;
+      const double* x0 = rod->work.sphere_xyz + 3 * k;
       const double* x1 = x0 + 3;
       double lo[3], hi[3];
       for (int a = 0; a < 3; ++a) {
         lo[a] = fmin(x0[a], x1[a]) - inflated;
         hi[a] = fmax(x0[a], x1[a]) + inflated;
       }
-      vsc_grid_insert(rod->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+      vsc_grid_insert(rod->work.grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
     }
     sort_pairs(l->self_pairs, l->self_count);
     for (int k = 0; k < l->self_count; ++k) {  // the distances, in the sorted order
       double s, t, d[3];
-      l->self_distance[k] = vsc_segment_gap(rod->sphere_xyz, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
+      l->self_distance[k] = vsc_segment_gap(rod->work.sphere_xyz, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
     }
   }
-  memcpy(l->sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  memcpy(l->sphere_xyz, rod->work.sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   l->self_built = !b.overflow;
   return l->self_built;
 }
@@ -322,23 +322,23 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
 // query per geom. Built apart from the self pairs, so a tool moving through a
 // resting bowel costs only this. Returns 0 if the list overflowed.
 static int build_geoms(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
   build b = {rod, world, -1, r + margin, 0};
   l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   int direct = spheres <= DIRECT_BUILD_SPHERES;
-  if (!direct) vsc_grid_begin(rod->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
+  if (!direct) vsc_grid_begin(rod->work.grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
   for (int i = 0; i < spheres; ++i) {
-    const double* x = rod->sphere_xyz + 3 * i;
+    const double* x = rod->work.sphere_xyz + 3 * i;
     double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
     double hi[3] = {x[0] + inflated, x[1] + inflated, x[2] + inflated};
     for (int a = 0; a < 3; ++a) {
       rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
       rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
     }
-    if (!direct) vsc_grid_insert(rod->grid, i, lo, hi, no_pair, &b);
+    if (!direct) vsc_grid_insert(rod->work.grid, i, lo, hi, no_pair, &b);
   }
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
@@ -354,13 +354,13 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
         visited = 0;
         if (lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])
           for (int i = 0; i < spheres; ++i) {
-            const double* x = rod->sphere_xyz + 3 * i;
+            const double* x = rod->work.sphere_xyz + 3 * i;
             if (x[0] + inflated >= lo[0] && x[0] - inflated <= hi[0] && x[1] + inflated >= lo[1] &&
                 x[1] - inflated <= hi[1] && x[2] + inflated >= lo[2] && x[2] - inflated <= hi[2])
               collect_geom(&b, i);
           }
       } else {
-        visited = vsc_grid_query(rod->grid, lo, hi, 8 * spheres, collect_geom, &b);
+        visited = vsc_grid_query(rod->work.grid, lo, hi, 8 * spheres, collect_geom, &b);
       }
     }
     if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
@@ -368,10 +368,10 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
     if (!direct) {  // grid order: sort, then the distances in that order
       sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
       for (int k = first; k < l->geom_count; ++k)
-        l->geom_distance[k] = filter_distance(geom, rod->sphere_xyz + 3 * l->geom_pairs[2 * k + 1]);
+        l->geom_distance[k] = filter_distance(geom, rod->work.sphere_xyz + 3 * l->geom_pairs[2 * k + 1]);
     }
   }
-  memcpy(l->geom_sphere_xyz, rod->sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  memcpy(l->geom_sphere_xyz, rod->work.sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
     double* poses = (double*)realloc(l->geom_pose, sizeof(double) * (VSC_GEOM_POSE_SIZE + 1) * (size_t)world->geom_count);
     if (!poses) return 0;
@@ -408,7 +408,7 @@ VSC_VECTOR_CLONES static void distances_moved(const double* restrict x, const do
 static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* moved) {
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   int spheres = rod->def.collision_sphere_count;
-  distances_moved(rod->sphere_xyz, snapshot, moved, spheres);
+  distances_moved(rod->work.sphere_xyz, snapshot, moved, spheres);
   double most = 0.0;
   for (int i = 0; i < spheres; ++i) most = moved[i] > most ? moved[i] : most;
   return most <= half;  // NaN: never valid
@@ -417,7 +417,7 @@ static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* move
 // The self pairs still hold every possible self-contact while no sphere moved
 // by half the margin since they were built.
 static int self_valid(const vsc_rod* rod) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   if (!l->self_built || !sphere_moves(rod, l->sphere_xyz, l->moved)) return 0;
   for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a)
     l->segment_moved[a] = l->moved[a] > l->moved[a + 1] ? l->moved[a] : l->moved[a + 1];
@@ -434,7 +434,7 @@ static int self_valid(const vsc_rod* rod) {
 // the geoms past it stale (geom_stale). Returns 1 if none is, 2 if a few are
 // (rebuild those alone: rebuild_stale_geoms), 0 if a whole build is due.
 static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
   if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
@@ -465,7 +465,7 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
 }
 
 int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->lists;
+  vsc_contact_lists* l = rod->work.lists;
   int self_fresh = 0, geoms_fresh = 0, spheres = rod->def.collision_sphere_count;
   int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
   int geoms_state = geoms_valid(rod, world);

@@ -53,7 +53,7 @@ void vsc_contact_lists_destroy(vsc_contact_lists* lists);
 double vsc_contact_lists_memory_bytes(int sphere_count);
 
 /// Make the lists hold every pair that can touch at the rod's placed spheres
-/// (rod->sphere_xyz must be current) and the world's geom poses: keep them
+/// (rod->work.sphere_xyz must be current) and the world's geom poses: keep them
 /// while nothing moved by half the margin, else rebuild. Writes how far each
 /// part moved since the build (segment_moved, geom_moved, the geoms' shifts).
 /// Returns 1, or 0 if a list overflowed (an extreme pile: the caller then tests

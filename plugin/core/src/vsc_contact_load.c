@@ -25,7 +25,7 @@ static int add_rows(const vsc_rod* rod, const double* load, double* row) {
 
 void vsc_contact_load_prepare(vsc_rod* rod) {
   int n = rod->n, spheres = rod->def.collision_sphere_count;
-  double* load = rod->contact_load;
+  double* load = rod->work.contact_load;
   double* row = load + spheres;
   double* inverse_mass = row + n;
   for (int k = 0; k < n; ++k)  // pinned points do not move: no bound there
@@ -40,17 +40,17 @@ void vsc_contact_load_prepare(vsc_rod* rod) {
   }
   for (int s = 0; s < spheres; ++s) load[s] = 0.0;
   rod->contact_load_unit = unit;
-  rod->contact_load_bound = 0.0;
+  rod->work.contact_load_bound = 0.0;
 }
 
 int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
   int n = rod->n, spheres = rod->def.collision_sphere_count;
-  double* load = rod->contact_load;
+  double* load = rod->work.contact_load;
   double* row = load + spheres;
   const double* inverse_mass = row + n;
   // gamma h per unit of load: the damping is c / k of the stiffness, both per contact
   double per_load = rod->def.contact_damping / rod->def.contact_stiffness * h;
-  rod->contact_load_bound = 0.0;
+  rod->work.contact_load_bound = 0.0;
   // first a bound of the bound, from the most loaded sphere: below the limit, the
   // ordinary case, nothing is limited and the rows need not be summed
   double most = 0.0;
@@ -65,7 +65,7 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
     row[k] *= per_load * inverse_mass[k];  // now the bound on gamma h at control point k
     peak = row[k] > peak ? row[k] : peak;
   }
-  rod->contact_load_bound = peak;
+  rod->work.contact_load_bound = peak;
   int limited = peak > VSC_CONTACT_DAMPING_LIMIT;
   for (int s = 0; s < spheres && limited; ++s) {
     double scale = 1.0;
@@ -75,10 +75,10 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
       if (bound > VSC_CONTACT_DAMPING_LIMIT && VSC_CONTACT_DAMPING_LIMIT / bound < scale)
         scale = VSC_CONTACT_DAMPING_LIMIT / bound;
     }
-    rod->damping_scale[s] = scale;
+    rod->work.damping_scale[s] = scale;
   }
   memset(load, 0, sizeof(double) * (size_t)(spheres + n));
   return limited;
 }
 
-double vsc_contact_load_last_bound(const vsc_rod* rod) { return rod->contact_load_bound; }
+double vsc_contact_load_last_bound(const vsc_rod* rod) { return rod->work.contact_load_bound; }

@@ -34,11 +34,11 @@ void vsc_contact_load_prepare(vsc_rod* rod);
 /// geom; 2 between two segments, each side summing to 1): its row in the
 /// Gershgorin sum of the contact's matrix k J' n n' J.
 static inline void vsc_contact_load_add(vsc_rod* rod, int sphere, double stiffness) {
-  rod->contact_load[sphere] += stiffness;
+  rod->work.contact_load[sphere] += stiffness;
 }
 
 /// After a contact pass at substep h (s): 1 if its damping bound exceeds
-/// VSC_CONTACT_DAMPING_LIMIT somewhere; then rod->damping_scale holds, per
+/// VSC_CONTACT_DAMPING_LIMIT somewhere; then rod->work.damping_scale holds, per
 /// sphere, the factor (<= 1) on its contacts' damping. 0 otherwise. Clears the
 /// load either way. O(spheres): below the limit, one pass for the most loaded sphere.
 int vsc_contact_load_limit_damping(vsc_rod* rod, double h);

@@ -27,9 +27,9 @@ VSC_VECTOR_CLONES static void edge_vectors(const double* restrict x, const doubl
 // them) into edge_*; returns the sum of their lengths (m).
 static double spring_edges(vsc_rod* rod, int gap) {
   int count = rod->sample_count - gap;
-  edge_vectors(rod->sample_x, rod->sample_y, rod->sample_z, rod->edge_x, rod->edge_y, rod->edge_z,
-               rod->edge_length, count, gap);
-  const double* el = rod->edge_length;
+  edge_vectors(rod->work.sample_x, rod->work.sample_y, rod->work.sample_z, rod->work.edge_x, rod->work.edge_y, rod->work.edge_z,
+               rod->work.edge_length, count, gap);
+  const double* el = rod->work.edge_length;
   double total = 0.0;  // apart and in order: an ordered sum does not vectorise
   for (int a = 0; a < count; ++a) total += el[a];
   return total;
@@ -63,9 +63,9 @@ VSC_VECTOR_CLONES static void scale_edges_each(double* restrict ex, double* rest
 // keeps a zero-length spring finite: its vector is zero.
 static void spring_tensions(vsc_rod* rod, int count, double k, const double* section, double rest, double extra) {
   if (section)
-    scale_edges_each(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, section, count, k, rest, extra);
+    scale_edges_each(rod->work.edge_x, rod->work.edge_y, rod->work.edge_z, rod->work.edge_length, section, count, k, rest, extra);
   else
-    scale_edges(rod->edge_x, rod->edge_y, rod->edge_z, rod->edge_length, count, k, rest, extra);
+    scale_edges(rod->work.edge_x, rod->work.edge_y, rod->work.edge_z, rod->work.edge_length, count, k, rest, extra);
 }
 
 // f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
@@ -74,9 +74,9 @@ static void spring_tensions(vsc_rod* rod, int count, double k, const double* sec
 // would: (f_a + t_a) - t_{a-gap}, with f_a = 0.0 when first.
 static void add_spring_forces(vsc_rod* rod, int gap, int first) {
   int N = rod->sample_count, count = N - gap;
-  // distinct blocks of rod->scratch (restrict: the loops vectorise)
-  const double *restrict tx = rod->edge_x, *restrict ty = rod->edge_y, *restrict tz = rod->edge_z;
-  double *restrict fx = rod->force_x, *restrict fy = rod->force_y, *restrict fz = rod->force_z;
+  // distinct blocks of rod->work.scratch (restrict: the loops vectorise)
+  const double *restrict tx = rod->work.edge_x, *restrict ty = rod->work.edge_y, *restrict tz = rod->work.edge_z;
+  double *restrict fx = rod->work.force_x, *restrict fy = rod->work.force_y, *restrict fz = rod->work.force_z;
   int low = gap < count ? gap : count, high = gap > count ? gap : count;
   // [0, low): + only; [gap, count): both; [count, gap): neither; [high, N): - only
   if (first) {
@@ -122,8 +122,8 @@ static double curvature_bending(vsc_rod* rod, int forces) {
   double k0 = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
   if (!(k0 > 0.0) || N < 3) return 0.0;
   const double* section = rod->curvature_scale;  // NULL untapered
-  const double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
-  double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
+  const double *x = rod->work.sample_x, *y = rod->work.sample_y, *z = rod->work.sample_z;
+  double *fx = rod->work.force_x, *fy = rod->work.force_y, *fz = rod->work.force_z;
   for (int a = 1; a + 1 < N; ++a) {
     double u[3] = {x[a] - x[a - 1], y[a] - y[a - 1], z[a] - z[a - 1]};
     double w[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
@@ -196,8 +196,8 @@ static void elastic_sample_forces(vsc_rod* rod) {
 // control point reading its own contiguous range of samples; one asleep deep
 // is held still and unwatched, so its forces are not needed (vsc_sleep.h).
 static void gather_to_control(const vsc_rod* rod, double* Q) {
-  const double *fx = rod->force_x, *fy = rod->force_y, *fz = rod->force_z;
-  const unsigned char* asleep = rod->asleep_count > 0 ? rod->asleep : NULL;
+  const double *fx = rod->work.force_x, *fy = rod->work.force_y, *fz = rod->work.force_z;
+  const unsigned char* asleep = rod->work.asleep_count > 0 ? rod->work.asleep : NULL;
   for (int k = 0; k < rod->n; ++k) {
     if (asleep && asleep[k] == VSC_ASLEEP_DEEP) continue;
     int a0 = rod->gather_first[k], count = rod->gather_count[k];
@@ -254,14 +254,14 @@ double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
   int N = rod->sample_count;
   double e = 0.0, dl = spring_edges(rod, 1) - rod->def.length;
   for (int a = 0; a + 1 < N; ++a) {
-    double d = rod->edge_length[a] - rod->rest_spacing;
+    double d = rod->work.edge_length[a] - rod->rest_spacing;
     e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
   }
   e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, 0);
   if (N > 2) {
     spring_edges(rod, 2);
     for (int a = 0; a + 2 < N; ++a) {
-      double d = rod->edge_length[a] - 2.0 * rod->rest_spacing;
+      double d = rod->work.edge_length[a] - 2.0 * rod->rest_spacing;
       e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
     }
   }

@@ -8,15 +8,15 @@
 
 double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
   size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
-  double* known_q = rod->energy_state;
+  double* known_q = rod->work.energy_state;
   double* known_v = known_q + 3 * rod->n;
-  if (rod->energy_known && memcmp(known_q, q, bytes) == 0 && memcmp(known_v, v, bytes) == 0)
-    return rod->energy_active;  // the step's end, now the next step's start
-  rod->energy_active = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
+  if (rod->work.energy_known && memcmp(known_q, q, bytes) == 0 && memcmp(known_v, v, bytes) == 0)
+    return rod->work.energy_active;  // the step's end, now the next step's start
+  rod->work.energy_active = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
   memcpy(known_q, q, bytes);
   memcpy(known_v, v, bytes);
-  rod->energy_known = 1;
-  return rod->energy_active;
+  rod->work.energy_known = 1;
+  return rod->work.energy_active;
 }
 
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {
@@ -35,7 +35,7 @@ double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
     }
     return e;
   }
-  double* Mv = rod->stage;  // scratch
+  double* Mv = rod->work.stage;  // scratch
   vsc_band_multiply3(rod->mass_band, rod->n, v, Mv);
   double e = 0.0;
   for (int i = 0; i < 3 * rod->n; ++i) e += 0.5 * v[i] * Mv[i];

@@ -16,10 +16,10 @@ void vsc_forces_evaluate(const vsc_step_context* context, const double* q, const
   const vsc_world* world = context->world;
   int n = rod->n;
   // place: every later stage reads the samples or the spheres
-  rod->touched = world->geom_count > 0 || rod->def.self_collision;
-  if (!rod->touched) rod->found_count = 0;  // no contact found: none for sleeping to read
+  rod->work.touched = world->geom_count > 0 || rod->def.self_collision;
+  if (!rod->work.touched) rod->work.found_count = 0;  // no contact found: none for sleeping to read
   vsc_rod_update_samples(rod, q);
-  if (rod->touched) vsc_rod_update_spheres(rod, q, v);
+  if (rod->work.touched) vsc_rod_update_spheres(rod, q, v);
   for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj
     double m = rod->mass_row_sum[k];
     Q[3 * k] = m * world->gravity[0];
@@ -30,7 +30,7 @@ void vsc_forces_evaluate(const vsc_step_context* context, const double* q, const
     for (int i = 0; i < 3 * n; ++i) Q[i] += world->control_load[i];
   vsc_rod_add_elastic_forces(rod, q, Q);
   if (world->grasp_count > 0) vsc_rod_add_grasp_forces(context, q, v, Q);
-  if (rod->touched) vsc_rod_add_contact_forces(context, Q);
+  if (rod->work.touched) vsc_rod_add_contact_forces(context, Q);
 }
 
 void vsc_forces_acceleration(const vsc_step_context* context, const double* q, const double* v, double* a) {
@@ -54,13 +54,13 @@ void vsc_forces_acceleration(const vsc_step_context* context, const double* q, c
   for (int i = 0; i < 3 * n; ++i) a[i] -= c * v[i];
   for (int k = 0; k < n; ++k)
     if (rod->is_pinned[k]) a[3 * k] = a[3 * k + 1] = a[3 * k + 2] = 0.0;
-  if (rod->asleep_count > 0) {  // sleeping points are held like pinned ones (vsc_sleep.h) ...
+  if (rod->work.asleep_count > 0) {  // sleeping points are held like pinned ones (vsc_sleep.h) ...
     const double limit2 = VSC_SLEEP_WAKE_ACCELERATION * VSC_SLEEP_WAKE_ACCELERATION;
     for (int k = 0; k < n; ++k) {
-      if (!rod->asleep[k]) continue;
+      if (!rod->work.asleep[k]) continue;
       double* ak = a + 3 * k;
-      if (rod->asleep[k] == VSC_ASLEEP_EDGE) {  // ... and one next to awake points wakes when its forces change
-        double* record = rod->rest + VSC_REST_SIZE * k;
+      if (rod->work.asleep[k] == VSC_ASLEEP_EDGE) {  // ... and one next to awake points wakes when its forces change
+        double* record = rod->work.rest + VSC_REST_SIZE * k;
         double* load = record + VSC_REST_LOAD;
         if (record[VSC_REST_WATCHED] == 0.0) {
           load[0] = ak[0];
@@ -69,7 +69,7 @@ void vsc_forces_acceleration(const vsc_step_context* context, const double* q, c
           record[VSC_REST_WATCHED] = 1.0;
         }
         double d0 = ak[0] - load[0], d1 = ak[1] - load[1], d2 = ak[2] - load[2];
-        if (d0 * d0 + d1 * d1 + d2 * d2 > limit2) rod->unbalanced[k] = 1;
+        if (d0 * d0 + d1 * d1 + d2 * d2 > limit2) rod->work.unbalanced[k] = 1;
       }
       ak[0] = ak[1] = ak[2] = 0.0;
     }

@@ -30,9 +30,9 @@ double vsc_rod_nearest_abscissa(vsc_rod* rod, const double* q, const double poin
   int N = rod->sample_count;
   double best = INFINITY, best_s = 0.0;
   for (int a = 0; a + 1 < N; ++a) {
-    double e[3] = {rod->sample_x[a + 1] - rod->sample_x[a], rod->sample_y[a + 1] - rod->sample_y[a],
-                   rod->sample_z[a + 1] - rod->sample_z[a]};
-    double w[3] = {point[0] - rod->sample_x[a], point[1] - rod->sample_y[a], point[2] - rod->sample_z[a]};
+    double e[3] = {rod->work.sample_x[a + 1] - rod->work.sample_x[a], rod->work.sample_y[a + 1] - rod->work.sample_y[a],
+                   rod->work.sample_z[a + 1] - rod->work.sample_z[a]};
+    double w[3] = {point[0] - rod->work.sample_x[a], point[1] - rod->work.sample_y[a], point[2] - rod->work.sample_z[a]};
     double ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
     double t = ee > 0.0 ? (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) / ee : 0.0;
     t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);

@@ -82,7 +82,7 @@ static void multiply(const double A[9], const double B[9], double c, double out[
 }
 
 // Sample-level blocks: S(a + d, a) at sample_hessian + 27 a + 9 d, d = 0..2.
-static double* sample_block(vsc_rod* rod, int row, int col) { return rod->sample_hessian + 27 * col + 9 * (row - col); }
+static double* sample_block(vsc_rod* rod, int row, int col) { return rod->work.sample_hessian + 27 * col + 9 * (row - col); }
 
 static void add_sample(vsc_rod* rod, int row, int col, double c, const double H[9]) {
   double* S = sample_block(rod, row, col);
@@ -97,9 +97,9 @@ static void add_pair(vsc_rod* rod, int a, int b, const double H[9]) {
 }
 
 static double edge(const vsc_rod* rod, int a, int b, double e[3]) {
-  e[0] = rod->sample_x[b] - rod->sample_x[a];
-  e[1] = rod->sample_y[b] - rod->sample_y[a];
-  e[2] = rod->sample_z[b] - rod->sample_z[a];
+  e[0] = rod->work.sample_x[b] - rod->work.sample_x[a];
+  e[1] = rod->work.sample_y[b] - rod->work.sample_y[a];
+  e[2] = rod->work.sample_z[b] - rod->work.sample_z[a];
   return sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
 }
 
@@ -107,7 +107,7 @@ static double edge(const vsc_rod* rod, int a, int b, double e[3]) {
 static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_samples) {
   int N = rod->sample_count;
   double l0 = rod->rest_spacing, H[9], e[3];
-  memset(rod->sample_hessian, 0, sizeof(double) * 27 * (size_t)N);
+  memset(rod->work.sample_hessian, 0, sizeof(double) * 27 * (size_t)N);
   double length = 0.0;
   for (int a = 0; a + 1 < N; ++a) length += edge(rod, a, a + 1, e);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
@@ -206,7 +206,7 @@ void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q,
                           double damping_weight, double* band, double* global_gradient) {
   int w = rod->jacobian_half_width, n = rod->n;
   vsc_rod_update_samples(rod, q);
-  double* gradient_samples = global_gradient ? rod->edge_x : NULL;  // 3N fits in edge_x..edge_z
+  double* gradient_samples = global_gradient ? rod->work.edge_x : NULL;  // 3N fits in edge_x..edge_z
   elastic_sample_hessian(rod, gradient_samples);
   project_samples(rod, stiffness_weight, band);
   if (global_gradient) {

@@ -3,7 +3,7 @@
 #include "vsc_place.h"
 
 void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
-  double *x = rod->sample_x, *y = rod->sample_y, *z = rod->sample_z;
+  double *x = rod->work.sample_x, *y = rod->work.sample_y, *z = rod->work.sample_z;
   for (int a = 0; a < rod->sample_count; ++a) {
     const vsc_basis* b = &rod->sample_basis[a];
     const double* p = q + 3 * b->first;
@@ -23,7 +23,7 @@ void vsc_rod_sphere_points(const vsc_rod* rod, const double* q, const double* v,
 }
 
 void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
-  vsc_rod_sphere_points(rod, q, v, rod->sphere_xyz, rod->sphere_velocity);
+  vsc_rod_sphere_points(rod, q, v, rod->work.sphere_xyz, rod->work.sphere_velocity);
 }
 
 void vsc_rod_add_sphere_force(const vsc_rod* rod, int sphere, const double f[3], double* Q) {

@@ -316,25 +316,25 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->mass_factor = (double*)AT(ARRAY_MASS_FACTOR);
   rod->mass_row_sum = (double*)AT(ARRAY_MASS_ROW_SUM);
   rod->gather_weight = (double*)AT(ARRAY_GATHER_WEIGHT);
-  rod->scratch = (double*)AT(ARRAY_SCRATCH);
-  rod->sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
-  rod->sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
+  rod->work.scratch = (double*)AT(ARRAY_SCRATCH);
+  rod->work.sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
+  rod->work.sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
   rod->sphere_radius = (double*)AT(ARRAY_SPHERE_RADIUS);
-  rod->stage = (double*)AT(ARRAY_STAGE);
-  rod->sample_hessian = (double*)AT(ARRAY_SAMPLE_HESSIAN);
-  rod->system = (double*)AT(ARRAY_SYSTEM);
-  rod->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
-  rod->backup = (double*)AT(ARRAY_BACKUP);
-  rod->touch = (double*)AT(ARRAY_TOUCH);
-  rod->contact_load = (double*)AT(ARRAY_CONTACT_LOAD);
-  rod->damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
+  rod->work.stage = (double*)AT(ARRAY_STAGE);
+  rod->work.sample_hessian = (double*)AT(ARRAY_SAMPLE_HESSIAN);
+  rod->work.system = (double*)AT(ARRAY_SYSTEM);
+  rod->work.factor_row = (double*)AT(ARRAY_FACTOR_ROW);
+  rod->work.backup = (double*)AT(ARRAY_BACKUP);
+  rod->work.touch = (double*)AT(ARRAY_TOUCH);
+  rod->work.contact_load = (double*)AT(ARRAY_CONTACT_LOAD);
+  rod->work.damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
   rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
   rod->pinned = (int*)AT(ARRAY_PINNED);
   rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);
-  rod->asleep = (unsigned char*)AT(ARRAY_ASLEEP);
-  rod->sphere_asleep = rod->asleep + def->control_count;
-  rod->moved = rod->sphere_asleep + def->collision_sphere_count;
-  rod->unbalanced = rod->moved + def->control_count;
+  rod->work.asleep = (unsigned char*)AT(ARRAY_ASLEEP);
+  rod->work.sphere_asleep = rod->work.asleep + def->control_count;
+  rod->work.moved = rod->work.sphere_asleep + def->collision_sphere_count;
+  rod->work.unbalanced = rod->work.moved + def->control_count;
   if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {
     int N = (def->control_count - 1) * def->samples_per_segment + 1;
     rod->stretch_scale = (double*)AT(ARRAY_SECTION_SCALE);
@@ -368,23 +368,23 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->rest_spacing = def->length / (double)(N - 1);
   rod->stretch_spring = def->stretch_stiffness * (double)(N - 1);
   rod->bend_spring = def->bend_stiffness * (double)(N - 1);
-  if (allocate_arrays(rod, def) || vsc_grid_create(spheres, &rod->grid) != VSC_OK ||
-      !(rod->lists = vsc_contact_lists_create(spheres))) {
+  if (allocate_arrays(rod, def) || vsc_grid_create(spheres, &rod->work.grid) != VSC_OK ||
+      !(rod->work.lists = vsc_contact_lists_create(spheres))) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
   double* block[10];
-  for (int i = 0; i < 10; ++i) block[i] = rod->scratch + (size_t)i * N;
-  rod->sample_x = block[0]; rod->sample_y = block[1]; rod->sample_z = block[2];
-  rod->force_x = block[3]; rod->force_y = block[4]; rod->force_z = block[5];
-  rod->edge_x = block[6]; rod->edge_y = block[7]; rod->edge_z = block[8];
-  rod->edge_length = block[9];
+  for (int i = 0; i < 10; ++i) block[i] = rod->work.scratch + (size_t)i * N;
+  rod->work.sample_x = block[0]; rod->work.sample_y = block[1]; rod->work.sample_z = block[2];
+  rod->work.force_x = block[3]; rod->work.force_y = block[4]; rod->work.force_z = block[5];
+  rod->work.edge_x = block[6]; rod->work.edge_y = block[7]; rod->work.edge_z = block[8];
+  rod->work.edge_length = block[9];
   for (int i = 0; i < def->pinned_count; ++i) {
     rod->pinned[i] = def->pinned[i];
     rod->is_pinned[def->pinned[i]] = 1;
   }
   rod->def.pinned = rod->pinned;
-  rod->energy_state = rod->backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
+  rod->work.energy_state = rod->work.backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
   for (int i = 0; i < spheres; ++i) {
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
@@ -432,9 +432,9 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
 void vsc_rod_destroy(vsc_rod* rod) {
   if (!rod) return;
   free(rod->block);
-  free(rod->found);
-  vsc_grid_destroy(rod->grid);
-  vsc_contact_lists_destroy(rod->lists);
+  free(rod->work.found);
+  vsc_grid_destroy(rod->work.grid);
+  vsc_contact_lists_destroy(rod->work.lists);
   free(rod);
 }
 
@@ -443,16 +443,16 @@ int vsc_rod_control_count(const vsc_rod* rod) { return rod->n; }
 int vsc_rod_sample_count(const vsc_rod* rod) { return rod->sample_count; }
 
 void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]) {
-  out[0] = rod->sample_x[a];
-  out[1] = rod->sample_y[a];
-  out[2] = rod->sample_z[a];
+  out[0] = rod->work.sample_x[a];
+  out[1] = rod->work.sample_y[a];
+  out[2] = rod->work.sample_z[a];
 }
 
 double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_damping_rate; }
 
-const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->sphere_xyz; }
+const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->work.sphere_xyz; }
 
-const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->sphere_velocity; }
+const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->work.sphere_velocity; }
 
 const double* vsc_rod_sphere_radii(const vsc_rod* rod) { return rod->sphere_radius; }
 

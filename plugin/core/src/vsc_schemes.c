@@ -21,7 +21,7 @@ vsc_status vsc_rk4_substep(vsc_step_context* context, double* q, double* v, doub
   vsc_rod* rod = context->rod;
   double weight = h / (6.0 * context->dt);
   int size = 3 * rod->n;
-  double* q0 = rod->stage;
+  double* q0 = rod->work.stage;
   double* v0 = q0 + size;
   double* qs = v0 + size;     // stage position
   double* vs = qs + size;     // stage velocity
@@ -80,7 +80,7 @@ static double exact_damping_correction(const vsc_rod* rod, double h) {
 static vsc_status drift_kick_drift(vsc_step_context* context, double* q, double* v, double h, double before) {
   vsc_rod* rod = context->rod;
   int size = 3 * rod->n;
-  double* a = rod->stage;
+  double* a = rod->work.stage;
   double first = before * h, second = (1.0 - before) * h;
   if (before > 0.0)
     for (int i = 0; i < size; ++i) q[i] += first * v[i];
@@ -146,7 +146,7 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
     double change = -(k * (moved[0] * normal[0] + moved[1] * normal[1] + moved[2] * normal[2]) +
                       c * (accelerated[0] * normal[0] + accelerated[1] * normal[1] + accelerated[2] * normal[2]));
     double f[3] = {change * normal[0], change * normal[1], change * normal[2]};  // on the sphere
-    const double* x = rod->sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
+    const double* x = rod->work.sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
     const double* p = world->geoms[geom].position;
     double r = rod->sphere_radius[i];
     double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
@@ -165,7 +165,7 @@ vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v,
   vsc_rod* rod = context->rod;
   const vsc_world* world = context->world;
   int size = 3 * rod->n, w = rod->jacobian_half_width;
-  double* q0 = rod->stage;
+  double* q0 = rod->work.stage;
   double* v0 = q0 + size;
   double* rhs = v0 + size;       // generalised forces, then the right-hand side
   double* spread = rhs + size;   // A^-1 g for the rank-one global term
@@ -180,19 +180,19 @@ vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v,
   double* momentum = spread;  // M v0, before `spread` is needed
   vsc_band_multiply3(rod->mass_band, rod->n, v0, momentum);
   for (int i = 0; i < size; ++i) rhs[i] += momentum[i];
-  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
-  vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, rod->system);
-  vsc_rod_add_jacobian(rod, world, q0, h * h, h, rod->system, gradient);
-  vsc_rod_pin_band(rod, rod->system);
+  memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
+  vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, rod->work.system);
+  vsc_rod_add_jacobian(rod, world, q0, h * h, h, rod->work.system, gradient);
+  vsc_rod_pin_band(rod, rod->work.system);
   for (int p = 0; p < rod->def.pinned_count; ++p)
     for (int c = 0; c < 3; ++c) rhs[3 * rod->pinned[p] + c] = gradient[3 * rod->pinned[p] + c] = 0.0;
-  vsc_status status = vsc_band_wide_factor(rod->system, size, w, rod->factor_row);
+  vsc_status status = vsc_band_wide_factor(rod->work.system, size, w, rod->work.factor_row);
   if (status != VSC_OK) return VSC_ERROR_DIVERGED;
-  vsc_band_wide_solve(rod->system, size, w, rhs);
+  vsc_band_wide_solve(rod->work.system, size, w, rhs);
   double global = h * h * rod->def.global_stretch_stiffness;
   if (global > 0.0) {  // (A + global g g^T)^-1 r = x - (global g.x / (1 + global g.A^-1 g)) A^-1 g
     memcpy(spread, gradient, sizeof(double) * size);
-    vsc_band_wide_solve(rod->system, size, w, spread);
+    vsc_band_wide_solve(rod->work.system, size, w, spread);
     double gx = 0.0, gy = 0.0;
     for (int i = 0; i < size; ++i) {
       gx += gradient[i] * rhs[i];

@@ -36,9 +36,9 @@ static int within_rest(const vsc_sleep_options* options, const double* q, const 
 
 int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double* q, double* rest, double* v) {
   int n = rod->n, spheres = rod->def.collision_sphere_count, count = 0;
-  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(n + spheres));
-  rod->asleep_count = 0;
-  rod->rest = NULL;
+  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(n + spheres));
+  rod->work.asleep_count = 0;
+  rod->work.rest = NULL;
   if (!rest || !options || !options->enabled) return 0;
   for (int k = 0; k < n; ++k) {
     int asleep = vsc_sleeps(options, rest[VSC_REST_SIZE * k + VSC_REST_TIME]);
@@ -46,58 +46,58 @@ int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double
       restart_rest(rest, q, k);
       asleep = 0;
     }
-    rod->asleep[k] = (unsigned char)asleep;
+    rod->work.asleep[k] = (unsigned char)asleep;
     count += asleep;
   }
-  rod->rest = rest;
+  rod->work.rest = rest;
   if (count == 0) return 0;
-  rod->asleep_count = count;
-  memset(rod->unbalanced, 0, (size_t)n);
+  rod->work.asleep_count = count;
+  memset(rod->work.unbalanced, 0, (size_t)n);
   if (count == n) {  // asleep everywhere (the common case at rest): all deep, held, nothing watched
     memset(v, 0, sizeof(double) * 3 * (size_t)n);
-    memset(rod->asleep, VSC_ASLEEP_DEEP, (size_t)(n + spheres));
+    memset(rod->work.asleep, VSC_ASLEEP_DEEP, (size_t)(n + spheres));
     for (int k = 0; k < n; ++k) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;
     return count;
   }
   // asleep within reach of an awake point: at the edge, its forces watched; deeper: unwatched
   for (int k = 0; k < n; ++k)
-    if (rod->asleep[k]) rod->asleep[k] = VSC_ASLEEP_DEEP;
+    if (rod->work.asleep[k]) rod->work.asleep[k] = VSC_ASLEEP_DEEP;
   for (int pass = 0; pass < 2; ++pass) {  // awake points mark their sleeping neighbours on either side
     int last_awake = -VSC_SLEEP_REACH - 1;
     for (int i = 0; i < n; ++i) {
       int k = pass ? n - 1 - i : i;
-      if (!rod->asleep[k])
+      if (!rod->work.asleep[k])
         last_awake = i;
       else if (i - last_awake <= VSC_SLEEP_REACH)
-        rod->asleep[k] = VSC_ASLEEP_EDGE;
+        rod->work.asleep[k] = VSC_ASLEEP_EDGE;
     }
   }
   for (int k = 0; k < n; ++k) {
-    if (rod->asleep[k]) v[3 * k] = v[3 * k + 1] = v[3 * k + 2] = 0.0;
-    if (rod->asleep[k] != VSC_ASLEEP_EDGE) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;  // a new edge, a new load
+    if (rod->work.asleep[k]) v[3 * k] = v[3 * k + 1] = v[3 * k + 2] = 0.0;
+    if (rod->work.asleep[k] != VSC_ASLEEP_EDGE) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;  // a new edge, a new load
   }
   for (int i = 0; i < spheres; ++i) {  // a sphere sleeps as the least asleep of the 4 points it depends on
-    const unsigned char* a = rod->asleep + rod->sphere_basis[i].first;
+    const unsigned char* a = rod->work.asleep + rod->sphere_basis[i].first;
     unsigned char least = a[0] < a[1] ? a[0] : a[1], later = a[2] < a[3] ? a[2] : a[3];
-    rod->sphere_asleep[i] = least < later ? least : later;
+    rod->work.sphere_asleep[i] = least < later ? least : later;
   }
   return count;
 }
 
 void vsc_sleep_retry(vsc_rod* rod) {
-  if (rod->asleep_count > 0) memset(rod->unbalanced, 0, (size_t)rod->n);
+  if (rod->work.asleep_count > 0) memset(rod->work.unbalanced, 0, (size_t)rod->n);
 }
 
 void vsc_sleep_end(vsc_rod* rod) {
-  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
-  rod->asleep_count = 0;
-  rod->rest = NULL;
+  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
+  rod->work.asleep_count = 0;
+  rod->work.rest = NULL;
 }
 
 void vsc_sleep_wake_all(vsc_rod* rod, const double* q, double* rest) {
   if (rest) vsc_rest_wake_all(rod->n, q, rest);
-  if (rod->asleep_count > 0) memset(rod->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
-  rod->asleep_count = 0;
+  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
+  rod->work.asleep_count = 0;
 }
 
 typedef struct waking {
@@ -110,7 +110,7 @@ typedef struct waking {
 
 // The sleeping ones of the 4 control points sphere `sphere` depends on wake.
 static void wake_sphere(waking* w, int sphere) {
-  const unsigned char* asleep = w->rod->asleep;
+  const unsigned char* asleep = w->rod->work.asleep;
   int first = w->rod->sphere_basis[sphere].first;
   for (int k = first; k < first + VSC_SPLINE_SUPPORT; ++k)
     if (asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0) {
@@ -122,7 +122,7 @@ static void wake_sphere(waking* w, int sphere) {
 
 // 1 if a point sphere `sphere` depends on moved this step.
 static int sphere_moved(const vsc_rod* rod, int sphere) {
-  const unsigned char* moved = rod->moved + rod->sphere_basis[sphere].first;
+  const unsigned char* moved = rod->work.moved + rod->sphere_basis[sphere].first;
   return moved[0] | moved[1] | moved[2] | moved[3];
 }
 
@@ -133,7 +133,7 @@ static int sphere_moved(const vsc_rod* rod, int sphere) {
 static void wake_by_contact(void* data, int rigid, int a, int b, double speed, double depth) {
   waking* w = (waking*)data;
   const vsc_rod* rod = w->rod;
-  const unsigned char* asleep = rod->sphere_asleep;
+  const unsigned char* asleep = rod->work.sphere_asleep;
   if (rigid) {
     if (asleep[a] && (speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed ||
                       depth > VSC_SLEEP_WAKE_DEPTH * rod->sphere_radius[a]))
@@ -157,7 +157,7 @@ static void wake_touched(waking* w, const vsc_world* world) {
   for (int g = 0; g < world->grasp_count; ++g) {
     vsc_basis b = vsc_spline_basis(rod->n, world->grasps[g].abscissa);
     for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k) {
-      w->woken += rod->asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0;
+      w->woken += rod->work.asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0;
       restart_rest(w->rest, w->q, k);  // held: never at rest
     }
   }
@@ -168,16 +168,16 @@ static void wake_touched(waking* w, const vsc_world* world) {
 int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, const double* q, double* rest) {
   vsc_rod* rod = context->rod;
   const vsc_world* world = context->world;
-  double* Q = rod->stage;  // scratch: the held rod's forces are not used
+  double* Q = rod->work.stage;  // scratch: the held rod's forces are not used
   memset(Q, 0, sizeof(double) * 3 * (size_t)rod->n);
-  memset(rod->moved, 0, (size_t)rod->n);
+  memset(rod->work.moved, 0, (size_t)rod->n);
   context->wrench_weight = 1.0;
   context->substep = 0.0;
-  rod->found_count = 0;
-  rod->touched = world->geom_count > 0;  // sleeping spheres never touch each other
-  if (rod->touched) {
+  rod->work.found_count = 0;
+  rod->work.touched = world->geom_count > 0;  // sleeping spheres never touch each other
+  if (rod->work.touched) {
     vsc_rod_update_spheres(rod, q, NULL);  // held: the spheres' velocities are zero
-    memset(rod->sphere_velocity, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
+    memset(rod->work.sphere_velocity, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
     vsc_rod_add_contact_forces(context, Q);
   }
   waking w = {rod, options, q, rest, 0};
@@ -188,8 +188,8 @@ int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, 
 void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_options* options, const double* start_q,
                        const double* q, double dt, double* rest) {
   int n = rod->n;
-  const unsigned char* asleep = rod->asleep;  // all 0 when nothing sleeps
-  unsigned char* moved = rod->moved;
+  const unsigned char* asleep = rod->work.asleep;  // all 0 when nothing sleeps
+  unsigned char* moved = rod->work.moved;
   double step_reach = options->rest_speed * dt;
   for (int k = 0; k < n; ++k) {
     moved[k] = 0;
@@ -207,9 +207,9 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
     }
   }
   waking w = {rod, options, q, rest, 0};
-  if (rod->asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
+  if (rod->work.asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
     for (int k = 0; k < n; ++k)  // and one at the edge whose forces changed wakes
-      if (rod->unbalanced[k]) restart_rest(rest, q, k);
+      if (rod->work.unbalanced[k]) restart_rest(rest, q, k);
     int last_moved = -VSC_SLEEP_REACH - 1;
     for (int k = 0; k < n; ++k) {
       if (moved[k]) {

@@ -7,7 +7,7 @@
 #include "viscera/vsc_sleep.h"
 #include "vsc_context.h"
 
-/// Set the rod's sleeping flags (rod->asleep, sphere_asleep, asleep_count)
+/// Set the rod's sleeping flags (rod->work.asleep, sphere_asleep, asleep_count)
 /// from the rest records (VSC_REST_SIZE per point; NULL or options disabled:
 /// none sleeps) and zero the sleeping points' velocities v (m/s, 3n). A
 /// sleeping point the host moved away from its rest (a state written) wakes at

@@ -10,7 +10,7 @@
 #include "vsc_schemes.h"
 
 // y = K x for the frequency estimate: with `contact` = 0, the band part of the
-// elastic Jacobian in rod->system and the global length term's rank-one part
+// elastic Jacobian in rod->work.system and the global length term's rank-one part
 // K_g g (g . x); with `contact` > 0 (N/m), only a penalty spring of that
 // stiffness at every sphere in every direction.
 static void stiffness_times(vsc_rod* rod, const double* gradient, double contact, const double* x, double* y) {
@@ -18,7 +18,7 @@ static void stiffness_times(vsc_rod* rod, const double* gradient, double contact
   if (contact > 0.0)  // the contact estimate alone: no elastic band
     memset(y, 0, sizeof(double) * (size_t)size);
   else
-    vsc_band_wide_multiply(rod->system, size, rod->jacobian_half_width, x, y);
+    vsc_band_wide_multiply(rod->work.system, size, rod->jacobian_half_width, x, y);
   double gx = 0.0;
   for (int i = 0; i < size; ++i) gx += gradient[i] * x[i];
   for (int i = 0; i < size; ++i) y[i] += rod->def.global_stretch_stiffness * gx * gradient[i];
@@ -36,7 +36,7 @@ static void stiffness_times(vsc_rod* rod, const double* gradient, double contact
 // Power iteration on M^-1 K: the largest omega^2 (rad^2/s^2), from below.
 static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double contact) {
   int size = 3 * rod->n;
-  double* x = rod->stage + 3 * size;  // the first three are the caller's gradient and scratch
+  double* x = rod->work.stage + 3 * size;  // the first three are the caller's gradient and scratch
   double* y = x + size;
   double* mx = y + size;
   // start near the highest mode: neighbours in opposition, along every axis
@@ -76,9 +76,9 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
 void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact) {
   int size = 3 * rod->n;
   vsc_world world = {{0, 0, 0}, NULL, 0};
-  double* gradient = rod->stage;
-  memset(rod->system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
-  vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->system, gradient);
+  double* gradient = rod->work.stage;
+  memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
+  vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->work.system, gradient);
   for (int k = 0; k < rod->n; ++k)
     if (rod->is_pinned[k]) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
   *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));

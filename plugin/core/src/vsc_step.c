@@ -138,7 +138,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
     pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
   }
   // the start, kept for retries
-  double* start_q = rod->backup;
+  double* start_q = rod->work.backup;
   double* start_v = start_q + size;
   double* start_stick = start_v + size;
   memcpy(start_q, q, sizeof(double) * size);
