@@ -518,6 +518,19 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
   return 0;
 }
 
+// 1 if every control point that collision sphere `sphere` of an instance (its config) depends on
+// has stayed within its rest reach for VSC_SLEEP_RESTING_SHARE of rest_time (its rest records,
+// `rest`): a resting body, whose chatter wakes nothing it touches (vsc_sleep.h).
+static int sphere_resting(const vsc_plugin_config* c, const double* rest, int sphere) {
+  if (!c->step.sleep.enabled) return 0;
+  int n = c->rod.control_count, spheres = c->rod.collision_sphere_count;
+  double resting = VSC_SLEEP_RESTING_SHARE * c->step.sleep.rest_time;
+  vsc_basis b = vsc_spline_basis(n, (double)sphere / (double)(spheres - 1));
+  for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k)
+    if (!(rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= resting)) return 0;
+  return 1;
+}
+
 // The partners' tubes as capsules after MuJoCo's geoms, at the step start (their
 // states are still the step start's: lower instances advance first and only
 // hand over loads), placed from their states into this instance's own buffers.
@@ -537,6 +550,12 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
     int spheres = other->config.rod.collision_sphere_count;
     vsc_partner_capsules(other->rod, it->partner_centres, it->partner_velocities, spheres, friction,
                          0.5 * m->opt.timestep, it->all_geoms + g);
+    const double* rest = s + other->layout.offset[VSC_STATE_REST];  // a capsule between resting spheres
+    for (int c = 0, before = sphere_resting(&other->config, rest, 0); c + 1 < spheres; ++c) {  // chatters
+      int after = sphere_resting(&other->config, rest, c + 1);
+      it->all_geoms[g + c].resting = before && after;
+      before = after;
+    }
     g += spheres - 1;
   }
   return g;
@@ -625,13 +644,15 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
 
 typedef struct pressing {
   intestine* it;
+  const double* rest;  // this instance's rest records, after its step
   int geoms;  // this step's geoms in all: MuJoCo's, then the partners' capsules
 } pressing;
 
 // A contact of this instance's sphere a against a partner's capsule b: flag the
 // capsule if the sphere moved (faster than a geom must to wake a sleeping
-// sphere it touches) or pressed deeper than a sleeping sphere may be pressed:
-// the rules vsc_sleep.h gives a geom, with this instance as the geom.
+// sphere it touches, unless its points rest: chatter) or pressed deeper than a
+// sleeping sphere may be pressed: the rules vsc_sleep.h gives a geom, with this
+// instance as the geom.
 static void flag_pressed(void* data, int rigid, int a, int b, double speed, double depth) {
   (void)speed;  // the relative speed counts the partner's own motion; the sphere's alone wakes it
   pressing* p = (pressing*)data;
@@ -646,7 +667,8 @@ static void flag_pressed(void* data, int rigid, int a, int b, double speed, doub
   if (j < 0) return;
   const double* v = vsc_rod_sphere_velocities(it->rod) + 3 * a;
   double moving = it->partner_waking_speed[j];
-  if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > moving * moving ||
+  int chatter = sphere_resting(&it->config, p->rest, a);
+  if ((!chatter && v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > moving * moving) ||
       depth > VSC_SLEEP_WAKE_DEPTH * it->all_geoms[b].size[0])
     it->pressed[capsule] = 1;
 }
@@ -694,7 +716,7 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     it->handed_any[j] = 1;
     g += spheres - 1;
   }
-  pressing request = {it, world->geom_count};
+  pressing request = {it, state + l.offset[VSC_STATE_REST], world->geom_count};
   vsc_rod_visit_contacts(it->rod, flag_pressed, &request);
 }
 

@@ -106,6 +106,7 @@ typedef struct waking {
   const double* q;
   double* rest;
   int woken;  // sleeping points woken
+  const vsc_world* world;
 } waking;
 
 // The sleeping ones of the 4 control points sphere `sphere` depends on wake.
@@ -127,7 +128,7 @@ static int sphere_moved(const vsc_rod* rod, int sphere) {
 }
 
 // A contact wakes a sleeping side (a sphere whose 4 points all sleep) when the
-// other moves: a geom whose surface moves at all or that presses it deeper than
+// other moves: a geom whose surface moves at all (but a resting rod's chatter) or that presses it deeper than
 // a sleeping sphere may be pressed (a mocap body moves with no velocity), a
 // segment whose points moved. A side partly awake moves with its awake points.
 static void wake_by_contact(void* data, int rigid, int a, int b, double speed, double depth) {
@@ -135,7 +136,8 @@ static void wake_by_contact(void* data, int rigid, int a, int b, double speed, d
   const vsc_rod* rod = w->rod;
   const unsigned char* asleep = rod->work.sphere_asleep;
   if (rigid) {
-    if (asleep[a] && (speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed ||
+    int chatter = w->world->geoms[b].resting;  // a resting rod's capsule: its speed is no motion
+    if (asleep[a] && ((!chatter && speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed) ||
                       depth > VSC_SLEEP_WAKE_DEPTH * rod->sphere_radius[a]))
       wake_sphere(w, a);
     return;
@@ -180,7 +182,7 @@ int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, 
     memset(rod->work.sphere_velocity, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
     vsc_rod_add_contact_forces(context, Q);
   }
-  waking w = {rod, options, q, rest, 0};
+  waking w = {rod, options, q, rest, 0, world};
   wake_touched(&w, world);
   return w.woken == 0;
 }
@@ -206,7 +208,7 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
       moved[k] = 1;
     }
   }
-  waking w = {rod, options, q, rest, 0};
+  waking w = {rod, options, q, rest, 0, world};
   if (rod->work.asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
     for (int k = 0; k < n; ++k)  // and one at the edge whose forces changed wakes
       if (rod->work.unbalanced[k]) restart_rest(rest, q, k);

@@ -43,6 +43,8 @@ typedef struct vsc_geom {
   double box[6];               ///< world-frame bounding box, min then max (m); ignored when unbounded
   double friction;             ///< Coulomb coefficient of the intestine against this geom (>= 0)
   int is_static;               ///< 1: never moves (its velocities are ignored)
+  int resting;                 ///< 1: it moves only as a resting body chatters (another rod's capsule whose
+                               ///< points all rest, vsc_sleep.h): its speed wakes nothing, its depth still does
   const vsc_convex* convex;    ///< VSC_GEOM_CONVEX only
   const vsc_heightfield* heightfield;  ///< VSC_GEOM_HEIGHTFIELD only
 } vsc_geom;

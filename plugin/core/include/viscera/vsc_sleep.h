@@ -44,8 +44,21 @@ typedef struct vsc_sleep_options {
 vsc_sleep_options vsc_default_sleep_options(void);
 
 /// A geom touching a sleeping sphere wakes it when the geom's surface moves
-/// faster than this share of rest_speed (50 um/s at the defaults).
+/// faster than this share of rest_speed (50 um/s at the defaults), unless the
+/// host marks the geom `resting` (vsc_geom.h): another rod's capsule whose
+/// points have stayed within their rest reach for VSC_SLEEP_RESTING_SHARE of
+/// rest_time. Two rods pressing each other chatter at the penalty's frequency
+/// (a colon under the small bowel's loops flipped its velocity every step, at
+/// 3 to 14 mm/s, micrometres of travel); each side's chatter woke the other's
+/// points every step, so neither ever slept.
 #define VSC_SLEEP_GEOM_SPEED_SHARE 0.01
+
+/// A point at rest this share of rest_time counts as resting for waking what it
+/// touches: a point moving at rest_speed or faster leaves its rest reach
+/// (rest_speed x rest_time) within rest_time, so one moving at twice rest_speed
+/// or faster never counts; a slower one wakes what it presses each time it
+/// leaves that reach.
+#define VSC_SLEEP_RESTING_SHARE 0.5
 
 /// A sleeping control point next to awake ones (within VSC_SLEEP_REACH) wakes
 /// when the forces on it change: held free, it would accelerate this much
