@@ -86,6 +86,7 @@ void vsc_mujoco_geoms_free(vsc_mujoco_geoms* w) {
     free((void*)w->convex[i].triangles);
   }
   free(w->convex);
+  for (int i = 0; w->heightfield && i < w->count; ++i) free((void*)w->heightfield[i].vertices);
   free(w->heightfield);
   free(w->ids);
   free(w->geoms);
@@ -138,6 +139,14 @@ int vsc_mujoco_geoms_create(const mjModel* m, vsc_mujoco_geoms* w) {
       h->columns = m->hfield_ncol[data];
       h->elevation = m->hfield_data + m->hfield_adr[data];
       for (int a = 0; a < 4; ++a) h->size[a] = m->hfield_size[4 * data + a];
+      // its vertices' heights and slopes, once: every query would derive them again
+      double* vertices = (double*)malloc(sizeof(double) * (size_t)vsc_heightfield_vertex_size(h));
+      if (!vertices) {
+        vsc_mujoco_geoms_free(w);
+        return -1;
+      }
+      vsc_heightfield_vertices(h, vertices);
+      h->vertices = vertices;
     }
   }
   return 0;

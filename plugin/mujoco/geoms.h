@@ -16,7 +16,7 @@ typedef struct vsc_mujoco_geoms {
   int* ids;                      ///< their MuJoCo geom ids (count)
   vsc_geom* geoms;               ///< their world description, refreshed by vsc_mujoco_geoms_update (count)
   vsc_convex* convex;            ///< hulls of mesh geoms (count; face_count 0 elsewhere)
-  vsc_heightfield* heightfield;  ///< height fields (count; reading the model's data)
+  vsc_heightfield* heightfield;  ///< height fields (count; reading the model's data; their vertex records owned here)
 } vsc_mujoco_geoms;
 
 /// Find the candidate geoms of `m` and build their hulls and height fields.

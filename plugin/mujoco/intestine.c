@@ -518,19 +518,6 @@ static int find_partners(const mjModel* m, mjData* d, intestine* it, int instanc
   return 0;
 }
 
-// 1 if every control point that collision sphere `sphere` of an instance (its config) depends on
-// has stayed within its rest reach for VSC_SLEEP_RESTING_SHARE of rest_time (its rest records,
-// `rest`): a resting body, whose chatter wakes nothing it touches (vsc_sleep.h).
-static int sphere_resting(const vsc_plugin_config* c, const double* rest, int sphere) {
-  if (!c->step.sleep.enabled) return 0;
-  int n = c->rod.control_count, spheres = c->rod.collision_sphere_count;
-  double resting = VSC_SLEEP_RESTING_SHARE * c->step.sleep.rest_time;
-  vsc_basis b = vsc_spline_basis(n, (double)sphere / (double)(spheres - 1));
-  for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k)
-    if (!(rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= resting)) return 0;
-  return 1;
-}
-
 // The partners' tubes as capsules after MuJoCo's geoms, at the step start (their
 // states are still the step start's: lower instances advance first and only
 // hand over loads), placed from their states into this instance's own buffers.
@@ -551,8 +538,9 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
     vsc_partner_capsules(other->rod, it->partner_centres, it->partner_velocities, spheres, friction,
                          0.5 * m->opt.timestep, it->all_geoms + g);
     const double* rest = s + other->layout.offset[VSC_STATE_REST];  // a capsule between resting spheres
-    for (int c = 0, before = sphere_resting(&other->config, rest, 0); c + 1 < spheres; ++c) {  // chatters
-      int after = sphere_resting(&other->config, rest, c + 1);
+    const vsc_sleep_options* sleep = &other->config.step.sleep;
+    for (int c = 0, before = vsc_sleep_sphere_resting(other->rod, sleep, rest, 0); c + 1 < spheres; ++c) {  // chatters
+      int after = vsc_sleep_sphere_resting(other->rod, sleep, rest, c + 1);
       it->all_geoms[g + c].resting = before && after;
       before = after;
     }
@@ -565,7 +553,7 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
 // pressed this step wake (the capsules it flagged, read from its own buffer):
 // a load from a partner at rest lets them sleep, as a resting geom does.
 static void wake_pressed(const mjModel* m, const mjData* d, intestine* it, int instance, mjtNum* state) {
-  int n = it->config.rod.control_count, spheres = it->config.rod.collision_sphere_count;
+  int spheres = it->config.rod.collision_sphere_count;
   const double* q = state + it->layout.offset[VSC_STATE_POSITIONS];
   double* rest = state + it->layout.offset[VSC_STATE_REST];
   for (int i = 0; i < instance; ++i) {
@@ -573,13 +561,11 @@ static void wake_pressed(const mjModel* m, const mjData* d, intestine* it, int i
     const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
     if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
     const unsigned char* pressed = lower->pressed + lower->pressed_offset[instance];
-    for (int c = 0; c + 1 < spheres; ++c) {
-      if (!pressed[c]) continue;
-      for (int end = 0; end < 2; ++end) {  // the points either sphere of capsule c depends on
-        vsc_basis b = vsc_spline_basis(n, (double)(c + end) / (double)(spheres - 1));
-        for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k) vsc_rest_wake(k, q, rest);
+    for (int c = 0; c + 1 < spheres; ++c)
+      if (pressed[c]) {  // the points either sphere of capsule c depends on
+        vsc_sleep_wake_sphere(it->rod, c, q, rest);
+        vsc_sleep_wake_sphere(it->rod, c + 1, q, rest);
       }
-    }
   }
 }
 
@@ -667,7 +653,7 @@ static void flag_pressed(void* data, int rigid, int a, int b, double speed, doub
   if (j < 0) return;
   const double* v = vsc_rod_sphere_velocities(it->rod) + 3 * a;
   double moving = it->partner_waking_speed[j];
-  int chatter = sphere_resting(&it->config, p->rest, a);
+  int chatter = vsc_sleep_sphere_resting(it->rod, &it->config.step.sleep, p->rest, a);
   if ((!chatter && v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > moving * moving) ||
       depth > VSC_SLEEP_WAKE_DEPTH * it->all_geoms[b].size[0])
     it->pressed[capsule] = 1;

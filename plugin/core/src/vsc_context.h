@@ -22,4 +22,7 @@ typedef struct vsc_step_context {
                            ///< must keep stable (vsc_contact_load.h); 0 in a lone evaluation: no limit
 } vsc_step_context;
 
+/// The reactions of a caller that wants none: every member NULL, nothing written.
+extern const vsc_reactions vsc_no_reactions;
+
 #endif  // VISCERA_SRC_VSC_CONTEXT_H

@@ -76,23 +76,22 @@ void vsc_forces_acceleration(const vsc_step_context* context, const double* q, c
   }
 }
 
+const vsc_reactions vsc_no_reactions = {NULL, NULL};
+
 // A lone evaluation: no friction state, reactions at full weight.
-static vsc_step_context lone(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions,
-                             const vsc_reactions* none) {
-  vsc_step_context context = {rod, world, reactions ? reactions : none, NULL, 1.0, 1.0, NULL, 0.0};
+static vsc_step_context lone(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions) {
+  vsc_step_context context = {rod, world, reactions ? reactions : &vsc_no_reactions, NULL, 1.0, 1.0, NULL, 0.0};
   return context;
 }
 
 void vsc_rod_forces(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, const double* q,
                     const double* v, double* Q) {
-  vsc_reactions none = {NULL, NULL};
-  vsc_step_context context = lone(rod, world, reactions, &none);
+  vsc_step_context context = lone(rod, world, reactions);
   vsc_forces_evaluate(&context, q, v, Q);
 }
 
 void vsc_rod_acceleration(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, const double* q,
                           const double* v, double* a) {
-  vsc_reactions none = {NULL, NULL};
-  vsc_step_context context = lone(rod, world, reactions, &none);
+  vsc_step_context context = lone(rod, world, reactions);
   vsc_forces_acceleration(&context, q, v, a);
 }

@@ -187,6 +187,17 @@ static void heightfield_vertex_slope(const vsc_heightfield* h, int row, int colu
   slope[1] = (heightfield_elevation(h, r1, column) - heightfield_elevation(h, r0, column)) / ((r1 - r0) * cell_y);
 }
 
+int vsc_heightfield_vertex_size(const vsc_heightfield* h) { return 3 * h->rows * h->columns; }
+
+void vsc_heightfield_vertices(const vsc_heightfield* h, double* out) {
+  for (int row = 0; row < h->rows; ++row)
+    for (int column = 0; column < h->columns; ++column) {
+      double* vertex = out + 3 * (row * h->columns + column);
+      vertex[0] = heightfield_elevation(h, row, column);
+      heightfield_vertex_slope(h, row, column, vertex + 1);
+    }
+}
+
 static double heightfield_distance(const vsc_heightfield* h, const double l[3], double n[3]) {
   n[0] = 0.0; n[1] = 0.0; n[2] = 1.0;
   double fx = (l[0] + h->size[0]) / (2.0 * h->size[0]) * (h->columns - 1);
@@ -200,11 +211,15 @@ static double heightfield_distance(const vsc_heightfield* h, const double l[3], 
   int rows[4] = {r0, r0, r0 + 1, r0 + 1}, columns[4] = {c0, c0 + 1, c0, c0 + 1};
   double height = 0.0, dx = 0.0, dy = 0.0;
   for (int k = 0; k < 4; ++k) {
-    double slope[2];
-    heightfield_vertex_slope(h, rows[k], columns[k], slope);
-    height += weight[k] * heightfield_elevation(h, rows[k], columns[k]);
-    dx += weight[k] * slope[0];
-    dy += weight[k] * slope[1];
+    double derived[3];
+    const double* vertex = h->vertices ? h->vertices + 3 * (rows[k] * h->columns + columns[k]) : derived;
+    if (!h->vertices) {
+      derived[0] = heightfield_elevation(h, rows[k], columns[k]);
+      heightfield_vertex_slope(h, rows[k], columns[k], derived + 1);
+    }
+    height += weight[k] * vertex[0];
+    dx += weight[k] * vertex[1];
+    dy += weight[k] * vertex[2];
   }
   double norm = sqrt(dx * dx + dy * dy + 1.0);
   n[0] = -dx / norm; n[1] = -dy / norm; n[2] = 1.0 / norm;

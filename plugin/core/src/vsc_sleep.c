@@ -27,6 +27,20 @@ void vsc_rest_wake_all(int control_count, const double* q, double* rest) {
 
 void vsc_rest_wake(int k, const double* q, double* rest) { restart_rest(rest, q, k); }
 
+int vsc_sleep_sphere_resting(const vsc_rod* rod, const vsc_sleep_options* options, const double* rest, int sphere) {
+  if (!options->enabled) return 0;
+  double resting = VSC_SLEEP_RESTING_SHARE * options->rest_time;
+  const vsc_basis* b = &rod->sphere_basis[sphere];
+  for (int k = b->first; k < b->first + VSC_SPLINE_SUPPORT; ++k)
+    if (!(rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= resting)) return 0;
+  return 1;
+}
+
+void vsc_sleep_wake_sphere(const vsc_rod* rod, int sphere, const double* q, double* rest) {
+  const vsc_basis* b = &rod->sphere_basis[sphere];
+  for (int k = b->first; k < b->first + VSC_SPLINE_SUPPORT; ++k) restart_rest(rest, q, k);
+}
+
 // 1 if point k at q (m) is within rest_speed x rest_time of where its rest began.
 static int within_rest(const vsc_sleep_options* options, const double* q, const double* rest, int k) {
   const double *x = q + 3 * k, *r = rest + VSC_REST_SIZE * k + VSC_REST_ANCHOR;

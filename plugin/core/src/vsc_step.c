@@ -102,8 +102,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
 vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
                         double* stick, double* rest, double dt, const vsc_step_options* options,
                         vsc_step_report* report) {
-  vsc_reactions none = {NULL, NULL};
-  vsc_status status = step(rod, world, reactions ? reactions : &none, q, v, stick, rest, dt, options, report);
+  vsc_status status = step(rod, world, reactions ? reactions : &vsc_no_reactions, q, v, stick, rest, dt, options, report);
   vsc_sleep_end(rod);  // the flags are this step's: a lone evaluation after it sees every point awake
   return status;
 }

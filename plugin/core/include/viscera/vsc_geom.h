@@ -29,7 +29,18 @@ typedef struct vsc_heightfield {
   int rows, columns;
   const float* elevation;   ///< rows x columns values in [0, 1], times size[2] (m)
   double size[4];           ///< half x, half y, top elevation, base depth (m)
+  const double* vertices;   ///< optional, host-owned (NULL: derived at every query): per grid vertex, row by
+                            ///< row, its height (m) and slopes dz/dx, dz/dy (3 x rows x columns), written once
+                            ///< by vsc_heightfield_vertices(); they only change with the model
 } vsc_heightfield;
+
+/// Number of doubles vsc_heightfield_vertices() writes for `h`.
+int vsc_heightfield_vertex_size(const vsc_heightfield* h);
+
+/// Write every vertex's height (m) and slopes into `out` (vsc_heightfield_vertex_size(h)
+/// doubles, caller-owned), to be set as h->vertices: a query then reads 4 records instead of
+/// 20 elevations. The same numbers a query derives without them.
+void vsc_heightfield_vertices(const vsc_heightfield* h, double* out);
 
 /// One rigid geom, world frame. Owned by the host.
 typedef struct vsc_geom {

@@ -98,6 +98,18 @@ void vsc_rest_wake_all(int control_count, const double* q, double* rest);
 /// (another intestine pressing) wakes it as a touching geom would.
 void vsc_rest_wake(int k, const double* q, double* rest);
 
+typedef struct vsc_rod vsc_rod;
+
+/// 1 if every control point that collision sphere `sphere` of `rod` depends on has stayed within
+/// its rest reach for VSC_SLEEP_RESTING_SHARE of options->rest_time (its rest records `rest`,
+/// VSC_REST_SIZE per point): a resting rod there, whose chatter wakes nothing it touches.
+/// 0 when sleeping is off.
+int vsc_sleep_sphere_resting(const vsc_rod* rod, const vsc_sleep_options* options, const double* rest, int sphere);
+
+/// Every control point collision sphere `sphere` of `rod` depends on awake, its rest beginning at
+/// q (m, 3n): another rod pressing that sphere wakes it as a touching geom would.
+void vsc_sleep_wake_sphere(const vsc_rod* rod, int sphere, const double* q, double* rest);
+
 /// 1 if a control point at rest for `time_at_rest` (s) sleeps under `options`.
 static inline int vsc_sleeps(const vsc_sleep_options* options, double time_at_rest) {
   return options->enabled && time_at_rest >= options->rest_time;
