@@ -3,12 +3,14 @@
 // lists are rebuilt apart, self pairs when spheres move, geom pairs when
 // either spheres or geoms move; neither may miss a contact).
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_rod.h"
 #include "vsc_contact.h"
+#include "vsc_capsule.h"
 #include "vsc_contact_lists.h"
 #include "vsc_touch.h"
 #include "viscera/viscera.h"
@@ -91,7 +93,50 @@ static void cached_lists_match_fresh_builds(void) {
   vsc_rod_destroy(cached);
 }
 
+// A self build (a sweep over the segments sorted by x, kept sorted from one build to the next)
+// lists exactly the segment pairs beyond the neighbours within 2r + m, in (a, b) order, with
+// their distances: checked against every pair, over a tangle that moves, turns and folds so
+// that the kept order goes stale between builds.
+static void self_build_lists_every_near_pair(void) {
+  vsc_rod* rod = coiled_rod();
+  double q[3 * N], v[3 * N] = {0};
+  vsc_world world = {{0, 0, 0}, NULL, 0};
+  int listed = 0, builds = 0;
+  for (int step = 0; step < 60; ++step) {
+    double t = 0.05 * step, c = cos(1.3 * t), s = sin(1.3 * t);
+    coil(t, q);
+    for (int k = 0; k < N; ++k) {  // turned about y and folded, so x order changes
+      double x = q[3 * k], z = q[3 * k + 2] * (1.0 + 0.5 * sin(0.2 * k + t));
+      q[3 * k] = c * x + s * z;
+      q[3 * k + 2] = -s * x + c * z;
+    }
+    vsc_rod_update_spheres(rod, q, v);
+    rod->work.lists->self_built = 0;  // a fresh self build every time
+    ENSURE(vsc_contact_lists_refresh(rod, &world));
+    ++builds;
+    const vsc_contact_lists* l = rod->work.lists;
+    int spheres = rod->def.collision_sphere_count, k = 0, mismatches = 0;
+    double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->radius_max;
+    for (int a = 0; a + 1 < spheres; ++a)
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) {
+        double u, w, d[3];
+        double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &u, &w, d);
+        if (!(distance <= limit)) continue;
+        mismatches += k >= l->self_count || l->self_pairs[2 * k] != a || l->self_pairs[2 * k + 1] != b ||
+                      l->self_distance[k] != distance;
+        ++k;
+      }
+    ENSURE(mismatches == 0);
+    ENSURE(k == l->self_count);
+    listed += k;
+  }
+  ENSURE(listed > builds * 100);  // the turns lie within reach of each other
+  printf("  %d pairs over %d builds, each as testing every pair finds\n", listed, builds);
+  vsc_rod_destroy(rod);
+}
+
 int main(void) {
   RUN(cached_lists_match_fresh_builds);
+  RUN(self_build_lists_every_near_pair);
   TEST_MAIN_END();
 }

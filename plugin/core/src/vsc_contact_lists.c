@@ -23,9 +23,10 @@ static int rebuilds_geoms_alone(int spheres) { return spheres <= DIRECT_BUILD_SP
 
 double vsc_contact_lists_memory_bytes(int spheres) {
   double geom_lists = rebuilds_geoms_alone(spheres) ? 2.0 * GEOM_PAIRS_PER_SPHERE : GEOM_PAIRS_PER_SPHERE;
+  double sweep = rebuilds_geoms_alone(spheres) ? sizeof(int) * (3.0 * SELF_PAIRS_PER_SPHERE + 4.0) : 0.0;
   return sizeof(vsc_contact_lists) +
          (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + geom_lists) +
-                            18.0 * sizeof(double));
+                            18.0 * sizeof(double) + sweep);
 }
 
 vsc_contact_lists* vsc_contact_lists_create(int spheres) {
@@ -41,13 +42,18 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   if (rebuilds_geoms_alone(spheres)) {
     l->merged_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->geom_capacity);
     l->merged_distance = (double*)malloc(sizeof(double) * (size_t)l->geom_capacity);
+    l->sweep_order = (int*)malloc(sizeof(int) * 4 * ((size_t)spheres + 1));
+    l->sweep_pairs = (int*)malloc(sizeof(int) * 3 * (size_t)l->self_capacity);
+    if (l->sweep_order)
+      for (int k = 0; k < spheres; ++k) l->sweep_order[k] = k;
   }
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
   l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
   if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance ||
-      (rebuilds_geoms_alone(spheres) && (!l->merged_pairs || !l->merged_distance)) || !l->sphere_xyz ||
+      (rebuilds_geoms_alone(spheres) && (!l->merged_pairs || !l->merged_distance || !l->sweep_order ||
+                                         !l->sweep_pairs)) || !l->sphere_xyz ||
       !l->geom_sphere_xyz || !l->segment || !l->moved) {
     vsc_contact_lists_destroy(l);
     return NULL;
@@ -66,6 +72,8 @@ void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   free(l->geom_distance);
   free(l->merged_pairs);
   free(l->merged_distance);
+  free(l->sweep_order);
+  free(l->sweep_pairs);
   free(l->geom_stale);
   free(l->sphere_xyz);
   free(l->geom_sphere_xyz);
@@ -247,10 +255,27 @@ void vsc_contact_lists_update_segments(vsc_rod* rod) {
   }
 }
 
-// Every segment pair beyond the neighbours, in order: a bounding-sphere test
-// over contiguous arrays (vectorised), then the exact distance. For chains up
-// to DIRECT_BUILD_SPHERES this costs a fraction of a grid pass, whose cells at
-// the pair reach hold dozens of segments in a pile.
+// The same pairs as build_self_direct, by testing every pair in order: for a pile with more
+// candidates than the list holds pairs (the list may still hold those that touch).
+static void build_self_every_pair(vsc_rod* rod, build* b) {
+  const double* mx = rod->work.lists->build_scratch;
+  int segments = rod->def.collision_sphere_count - 1;
+  const double *my = mx + segments, *mz = my + segments, *half = mz + segments;
+  for (int a = 0; a < segments && !b->overflow; ++a)
+    for (int c = a + rod->self_gap; c < segments && !b->overflow; ++c) {
+      double dx = mx[c] - mx[a], dy = my[c] - my[a], dz = mz[c] - mz[a], r = half[a] + half[c];
+      if (dx * dx + dy * dy + dz * dz - r * r <= 0.0) keep_self(b, a, c);
+    }
+}
+
+// The segment pairs beyond the neighbours whose bounding spheres, grown by half the pair reach
+// each, overlap (midpoints within 2r + m + both half lengths), then the exact distance. For
+// chains up to DIRECT_BUILD_SPHERES, a sweep along x: the segments sorted by their midpoints'
+// x (the last build's order, sorted again by insertion: the chain moved little since, so
+// nearly sorted), each tested against those after it until their x alone rules the rest out.
+// A pile's cells at the pair reach hold dozens of segments, where a grid pass costs more.
+// The candidates are then put in (a, c) order, so the pairs and their distances are those, in
+// the order, that testing every pair would find.
 static void build_self_direct(vsc_rod* rod, build* b) {
   vsc_contact_lists* l = rod->work.lists;
   vsc_contact_lists_update_segments(rod);
@@ -261,23 +286,63 @@ static void build_self_direct(vsc_rod* rod, build* b) {
   double* my = mx + segments;
   double* mz = my + segments;
   double* half = mz + segments;
-  double* excess = half + segments;  // per segment: squared distance less squared reach
+  double widest = 0.0;
   for (int a = 0; a < segments; ++a) {
     mx[a] = seg[4 * a];
     my[a] = seg[4 * a + 1];
     mz[a] = seg[4 * a + 2];
     half[a] = seg[4 * a + 3] + 0.5 * limit;
+    widest = half[a] > widest ? half[a] : widest;
   }
-  for (int a = 0; a < segments && !b->overflow; ++a) {
-    int first = a + rod->self_gap;
-    double x = mx[a], y = my[a], z = mz[a], ha = half[a];
-    for (int c = first; c < segments; ++c) {  // |m_a - m_c| <= 2r + m + half lengths
-      double dx = mx[c] - x, dy = my[c] - y, dz = mz[c] - z, r = ha + half[c];
-      excess[c] = dx * dx + dy * dy + dz * dz - r * r;
+  int* order = l->sweep_order;  // segment indices by midpoint x
+  for (int k = 1; k < segments; ++k) {
+    int item = order[k], j = k;
+    while (j > 0 && mx[order[j - 1]] > mx[item]) {
+      order[j] = order[j - 1];
+      --j;
     }
-    for (int c = first; c < segments; ++c)
-      if (excess[c] <= 0.0) keep_self(b, a, c);
+    order[j] = item;
   }
+  // the candidates (lo, hi), counted per lo and per hi
+  int* lo_count = order + segments;       // segments + 1 each: counts, then each bucket's first slot
+  int* hi_count = lo_count + segments + 1;
+  int* lo_next = hi_count + segments + 1;  // segments: each lo bucket's next slot
+  int capacity = l->self_capacity, candidates = 0;
+  int *found_lo = l->sweep_pairs, *found_hi = found_lo + capacity, *by_hi = found_hi + capacity;
+  memset(lo_count, 0, sizeof(int) * 2 * ((size_t)segments + 1));
+  for (int k = 0; k < segments; ++k) {
+    int a = order[k];
+    // apart in x by more than both grown half lengths, no pair can pass the test below (the
+    // slack keeps every pair it could pass)
+    double x = mx[a], window = (half[a] + widest) * (1.0 + 1e-9);
+    for (int j = k + 1; j < segments && mx[order[j]] - x <= window; ++j) {
+      int c = order[j], lo = a < c ? a : c, hi = a < c ? c : a;
+      if (hi - lo < rod->self_gap) continue;
+      double dx = mx[hi] - mx[lo], dy = my[hi] - my[lo], dz = mz[hi] - mz[lo], r = half[lo] + half[hi];
+      if (!(dx * dx + dy * dy + dz * dz - r * r <= 0.0)) continue;
+      if (candidates >= capacity) {  // more candidates than the list holds pairs: test them all
+        build_self_every_pair(rod, b);
+        return;
+      }
+      found_lo[candidates] = lo;
+      found_hi[candidates] = hi;
+      ++candidates;
+      ++lo_count[lo + 1];
+      ++hi_count[hi + 1];
+    }
+  }
+  // into (lo, hi) order by two stable counting sorts: by hi, then by lo
+  for (int a = 0; a < segments; ++a) {
+    lo_count[a + 1] += lo_count[a];
+    hi_count[a + 1] += hi_count[a];
+  }
+  for (int k = 0; k < candidates; ++k) by_hi[hi_count[found_hi[k]]++] = found_lo[k];  // now each bucket's end
+  int* his = found_lo;  // read no more
+  memcpy(lo_next, lo_count, sizeof(int) * (size_t)segments);
+  for (int hi = 0, k = 0; hi < segments; ++hi)
+    for (; k < hi_count[hi]; ++k) his[lo_next[by_hi[k]]++] = hi;
+  for (int a = 0; a < segments; ++a)
+    for (int k = lo_count[a]; k < lo_count[a + 1] && !b->overflow; ++k) keep_self(b, a, his[k]);
 }
 
 // The self pairs: segments within 2r + m, with their distances. Returns 0 if
