@@ -125,24 +125,11 @@ static inline int segments_asleep(const vsc_rod* rod, int a, int b) {
   return rod->work.asleep_count > 0 && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
 }
 
-static void self_pair(void* context, int earlier, int item) {
-  pass* p = (pass*)context;
+// Keep the contact of segments a < b if their closest points, at parameters s and t with d
+// from b's point to a's (m) and `distance` its length (m), lie within the tube's radii.
+static void self_contact(pass* p, int a, int b, double s, double t, const double d[3], double distance) {
   vsc_rod* rod = p->rod;
-  int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
-  if (b - a < rod->self_gap) return;  // neighbours along the axis
-  if (segments_asleep(rod, a, b)) return;
-  const double *x = rod->work.sphere_xyz, *v = rod->work.sphere_velocity;
-  if (p->segment) {
-    // testing every pair (no lists): a cheap exact rejection first, segments within
-    // 2r of each other have midpoints within 2r + half of each length (the lists'
-    // pairs need none: their build distances already rule out all but ~1 %)
-    const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
-    double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
-    double reach = 2.0 * rod->radius_max + (sa[3] + sb[3]);
-    if (gap2 >= reach * reach) return;
-  }
-  double s, t, d[3];
-  double distance = vsc_segment_gap(x, a, b, &s, &t, d);
+  const double* v = rod->work.sphere_velocity;
   double ra = rod->def.radius, rb = ra;
   if (rod->tapered) {  // the tube's radius at the closest points
     const double* R = rod->sphere_radius;
@@ -168,6 +155,118 @@ static void self_pair(void* context, int earlier, int item) {
     found->relative[c] = vp - vq;
   }
   keep(p, found);
+}
+
+static void self_pair(void* context, int earlier, int item) {
+  pass* p = (pass*)context;
+  vsc_rod* rod = p->rod;
+  int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
+  if (b - a < rod->self_gap) return;  // neighbours along the axis
+  if (segments_asleep(rod, a, b)) return;
+  if (p->segment) {
+    // testing every pair (no lists): a cheap exact rejection first, segments within
+    // 2r of each other have midpoints within 2r + half of each length (the lists'
+    // pairs need none: their build distances already rule out all but ~1 %)
+    const double *sa = p->segment + 4 * a, *sb = p->segment + 4 * b;
+    double gap2 = (sa[0] - sb[0]) * (sa[0] - sb[0]) + (sa[1] - sb[1]) * (sa[1] - sb[1]) + (sa[2] - sb[2]) * (sa[2] - sb[2]);
+    double reach = 2.0 * rod->radius_max + (sa[3] + sb[3]);
+    if (gap2 >= reach * reach) return;
+  }
+  double s, t, d[3];
+  double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &s, &t, d);
+  self_contact(p, a, b, s, t, d, distance);
+}
+
+// The listed self pairs the skip filter keeps go through the narrow phase in batches: their
+// endpoints gathered side by side, the closest points of a whole batch computed in one loop
+// the compiler vectorises (vsc_capsule.h's arithmetic, each branch's value computed and the
+// right one selected: the same bits), then each pair's contact kept in the list's order.
+#define SELF_BATCH 64
+
+typedef struct self_batch {
+  int count;
+  int a[SELF_BATCH], b[SELF_BATCH];
+  double end[12][SELF_BATCH];   // p0, p1 (segment a's spheres), q0, q1 (b's), x y z each (m)
+  double s[SELF_BATCH], t[SELF_BATCH];
+  double d[3][SELF_BATCH];      // from b's closest point to a's (m)
+  double distance2[SELF_BATCH]; // its squared length (m^2)
+} self_batch;
+
+VSC_VECTOR_CLONES static void closest_points_batch(int count, const double (*restrict end)[SELF_BATCH],
+                                                   double* restrict s_out, double* restrict t_out,
+                                                   double (*restrict d)[SELF_BATCH], double* restrict distance2) {
+  const double tiny = 1e-30;
+  for (int i = 0; i < count; ++i) {
+    double p0[3] = {end[0][i], end[1][i], end[2][i]}, p1[3] = {end[3][i], end[4][i], end[5][i]};
+    double q0[3] = {end[6][i], end[7][i], end[8][i]}, q1[3] = {end[9][i], end[10][i], end[11][i]};
+    double d1[3], d2[3], r[3];
+    for (int a = 0; a < 3; ++a) {
+      d1[a] = p1[a] - p0[a];
+      d2[a] = q1[a] - q0[a];
+      r[a] = p0[a] - q0[a];
+    }
+    double aa = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
+    double e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
+    double f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
+    double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
+    double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b;
+    // every quotient and comparison unconditionally, then selected (one evaluated under a
+    // condition would keep the loop scalar); clamp01 as vsc_clamp01, NaN to 0
+    double inner = (b * f - c * e) / denominator, low = -c / aa, high = (b - c) / aa, alone = f / e;
+    inner = inner > 0.0 ? inner : 0.0;
+    inner = inner < 1.0 ? inner : 1.0;
+    low = low > 0.0 ? low : 0.0;
+    low = low < 1.0 ? low : 1.0;
+    high = high > 0.0 ? high : 0.0;
+    high = high < 1.0 ? high : 1.0;
+    alone = alone > 0.0 ? alone : 0.0;
+    alone = alone < 1.0 ? alone : 1.0;
+    double s_inner = denominator > 0.0 ? inner : 0.0;
+    double t_inner = (b * s_inner + f) / e;
+    int below = t_inner < 0.0, above = t_inner > 1.0, a_point = aa <= tiny, b_point = e <= tiny;
+    double s = below ? low : (above ? high : s_inner);
+    double t = below ? 0.0 : (above ? 1.0 : t_inner);
+    s = b_point ? low : s;  // segment b a point
+    t = b_point ? 0.0 : t;
+    s = a_point ? 0.0 : s;  // segment a a point (both: 0, 0)
+    t = a_point ? (b_point ? 0.0 : alone) : t;
+    s_out[i] = s;
+    t_out[i] = t;
+    double squared = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      double P = (1.0 - s) * p0[a] + s * p1[a];
+      double Q = (1.0 - t) * q0[a] + t * q1[a];
+      d[a][i] = P - Q;
+    }
+    squared = d[0][i] * d[0][i] + d[1][i] * d[1][i] + d[2][i] * d[2][i];
+    distance2[i] = squared;
+  }
+}
+
+// The narrow phase of the batch's pairs, then the batch emptied.
+static void flush_self_batch(pass* p, self_batch* batch) {
+  closest_points_batch(batch->count, (const double (*)[SELF_BATCH])batch->end, batch->s, batch->t, batch->d,
+                       batch->distance2);
+  for (int i = 0; i < batch->count; ++i) {
+    double d[3] = {batch->d[0][i], batch->d[1][i], batch->d[2][i]};
+    self_contact(p, batch->a[i], batch->b[i], batch->s[i], batch->t[i], d, sqrt(batch->distance2[i]));
+  }
+  batch->count = 0;
+}
+
+static void batch_self_pair(pass* p, self_batch* batch, int a, int b) {
+  if (segments_asleep(p->rod, a, b)) return;
+  const double* x = p->rod->work.sphere_xyz;
+  int i = batch->count++;
+  batch->a[i] = a;
+  batch->b[i] = b;
+  for (int c = 0; c < 3; ++c) {
+    batch->end[c][i] = x[3 * a + c];
+    batch->end[3 + c][i] = x[3 * a + 3 + c];
+    batch->end[6 + c][i] = x[3 * b + c];
+    batch->end[9 + c][i] = x[3 * b + 3 + c];
+  }
+  if (batch->count == SELF_BATCH) flush_self_batch(p, batch);
 }
 
 // Narrow phase of sphere i against geom p->geom.
@@ -285,11 +384,14 @@ static void find_contacts(pass* p) {
   if (rod->def.self_collision && !all_asleep) {
     double contact = 2.0 * rod->radius_max * SKIP_SLACK;
     const double* moved = l->segment_moved;
+    self_batch batch;
+    batch.count = 0;
     for (int k = 0; k < l->self_count; ++k) {
       int a = l->self_pairs[2 * k], b = l->self_pairs[2 * k + 1];
       if (l->self_distance[k] - moved[a] - moved[b] > contact) continue;
-      self_pair(p, a, b);
+      batch_self_pair(p, &batch, a, b);
     }
+    flush_self_batch(p, &batch);
   }
   if (l->geom_count == 0) return;
   const double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
