@@ -162,7 +162,40 @@ static void heightfield_vertices_same_bits(void) {
   }
 }
 
+// A height field's distance bound holds: wherever a point moves within the reach, it stays
+// at least the bound less its move from the surface while that is positive, over a rough,
+// steep field, around its sides and under its base; and it skips most points above it.
+static void heightfield_bound_holds(void) {
+  enum { ROWS = 9, COLUMNS = 11 };
+  float rough[ROWS * COLUMNS];
+  for (int k = 0; k < ROWS * COLUMNS; ++k) rough[k] = (float)(0.5 + 0.5 * sin(2.3 * k) * cos(0.7 * k));
+  vsc_heightfield field = {ROWS, COLUMNS, rough, {0.1, 0.08, 0.05, 0.01}};
+  double vertices[3 * ROWS * COLUMNS];
+  vsc_heightfield_vertices(&field, vertices);
+  field.vertices = vertices;
+  vsc_geom g = make(VSC_GEOM_HEIGHTFIELD, 0, 0, 0);
+  g.heightfield = &field;
+  double reach = 0.0125;
+  int bounded = 0, violations = 0;
+  for (int k = 0; k < 4000; ++k) {
+    double x[3] = {0.13 * sin(0.77 * k), 0.11 * cos(1.21 * k), 0.04 * sin(0.31 * k) + 0.03}, n[3];
+    double bound = vsc_geom_distance_bound(&g, x, reach);
+    for (int j = 0; j < 20; ++j) {  // moves within the reach
+      double u[3] = {sin(3.1 * j + k), cos(1.7 * j - k), sin(0.9 * j * k)}, norm = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+      double step = reach * (j + 1) / 20.0, y[3];
+      for (int c = 0; c < 3; ++c) y[c] = x[c] + step * u[c] / norm;
+      if (!(bound - step > 0.0)) continue;
+      ++bounded;
+      violations += !(vsc_geom_distance(&g, y, n) >= bound - step);
+    }
+  }
+  ENSURE(violations == 0);
+  ENSURE(bounded > 4000);  // most points high above it are bounded
+  printf("  %d moves bounded, %d below their bound\n", bounded, violations);
+}
+
 int main(void) {
+  RUN(heightfield_bound_holds);
   RUN(primitives);
   RUN(heightfield_continuous);
   RUN(heightfield_vertices_same_bits);

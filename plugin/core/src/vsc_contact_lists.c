@@ -124,6 +124,7 @@ typedef struct build {
   const vsc_world* world;
   int geom;
   double reach;   // sphere-geom candidate distance, r + m (m)
+  double motion;  // the most a sphere and a geom move apart until the next build: m (m)
   int overflow;
 } build;
 
@@ -153,18 +154,18 @@ static void collect_self(void* context, int earlier, int item) {
   keep_self(b, lo, hi);
 }
 
-// The distance filter needs a distance that changes no faster than the point
-// moves: exact distances do, a height field's does not (it jumps at its
-// sides), so a height field keeps every grid candidate and is never skipped.
-static double filter_distance(const vsc_geom* geom, const double* x) {
-  double n[3];
-  return geom->type != VSC_GEOM_HEIGHTFIELD ? vsc_geom_distance(geom, x, n) : -INFINITY;
+// The distance filter needs a distance that changes no faster than the point moves, over
+// `motion` (m), the most the sphere and the geom may move apart before the pair's next build:
+// exact distances do; a height field's does not (it jumps at its sides and turns with its
+// normal), so it is bounded by the height above the vertices near the sphere (vsc_geom.h).
+static double filter_distance(const vsc_geom* geom, const double* x, double motion) {
+  return vsc_geom_distance_bound(geom, x, motion);
 }
 
 static void collect_geom(void* context, int i) {
   build* b = (build*)context;
   vsc_contact_lists* l = b->rod->work.lists;
-  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->work.sphere_xyz + 3 * i);
+  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->work.sphere_xyz + 3 * i, b->motion);
   if (distance > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;
@@ -198,7 +199,7 @@ static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int c
           x[2] + w < geom->box[2] - 0.5 * margin || x[2] - w > geom->box[5] + 0.5 * margin)
         continue;
     }
-    double distance = filter_distance(geom, x);
+    double distance = filter_distance(geom, x, margin + l->geom_moved[i]);
     if (distance > widened) continue;
     if (count >= l->geom_capacity) return -1;
     l->merged_pairs[2 * count] = g;
@@ -351,7 +352,7 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->work.lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
-  build b = {rod, world, -1, r + margin, 0};
+  build b = {rod, world, -1, r + margin, margin, 0};
   l->self_count = 0;
   if (spheres <= DIRECT_BUILD_SPHERES) {
     build_self_direct(rod, &b);
@@ -390,7 +391,7 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
   vsc_contact_lists* l = rod->work.lists;
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
-  build b = {rod, world, -1, r + margin, 0};
+  build b = {rod, world, -1, r + margin, margin, 0};
   l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   int direct = spheres <= DIRECT_BUILD_SPHERES;
@@ -433,7 +434,7 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
     if (!direct) {  // grid order: sort, then the distances in that order
       sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
       for (int k = first; k < l->geom_count; ++k)
-        l->geom_distance[k] = filter_distance(geom, rod->work.sphere_xyz + 3 * l->geom_pairs[2 * k + 1]);
+        l->geom_distance[k] = filter_distance(geom, rod->work.sphere_xyz + 3 * l->geom_pairs[2 * k + 1], b.motion);
     }
   }
   memcpy(l->geom_sphere_xyz, rod->work.sphere_xyz, sizeof(double) * 3 * (size_t)spheres);

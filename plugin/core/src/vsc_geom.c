@@ -226,6 +226,48 @@ static double heightfield_distance(const vsc_heightfield* h, const double l[3], 
   return (l[2] - height) / norm;
 }
 
+// The bound of vsc_geom_distance_bound for a height field, at local point l: every vertex
+// whose cells y may lie in (one more each side, for rounding at the cells' edges).
+static double heightfield_distance_bound(const vsc_heightfield* h, const double l[3], double reach) {
+  if (l[2] + reach < -h->size[3]) return INFINITY;  // below its base throughout: no contact
+  double columns_per_m = (h->columns - 1) / (2.0 * h->size[0]), rows_per_m = (h->rows - 1) / (2.0 * h->size[1]);
+  double x0 = (l[0] - reach + h->size[0]) * columns_per_m, x1 = (l[0] + reach + h->size[0]) * columns_per_m;
+  double y0 = (l[1] - reach + h->size[1]) * rows_per_m, y1 = (l[1] + reach + h->size[1]) * rows_per_m;
+  if (!(x1 >= -1.0 && y1 >= -1.0 && x0 <= h->columns && y0 <= h->rows)) return INFINITY;  // beside it throughout
+  x0 = x0 > -1.0 ? x0 : -1.0, y0 = y0 > -1.0 ? y0 : -1.0;  // within int range before the casts
+  x1 = x1 < h->columns ? x1 : h->columns, y1 = y1 < h->rows ? y1 : h->rows;
+  int c0 = (int)floor(x0) - 1, c1 = (int)ceil(x1) + 1, r0 = (int)floor(y0) - 1, r1 = (int)ceil(y1) + 1;
+  c0 = c0 < 0 ? 0 : c0, r0 = r0 < 0 ? 0 : r0;
+  c1 = c1 > h->columns - 1 ? h->columns - 1 : c1, r1 = r1 > h->rows - 1 ? h->rows - 1 : r1;
+  double highest = -INFINITY, steepest2 = 0.0;
+  for (int row = r0; row <= r1; ++row)
+    for (int column = c0; column <= c1; ++column) {
+      double derived[3];
+      const double* vertex = h->vertices ? h->vertices + 3 * (row * h->columns + column) : derived;
+      if (!h->vertices) {
+        derived[0] = heightfield_elevation(h, row, column);
+        heightfield_vertex_slope(h, row, column, derived + 1);
+      }
+      highest = vertex[0] > highest ? vertex[0] : highest;
+      double slope2 = vertex[1] * vertex[1] + vertex[2] * vertex[2];
+      steepest2 = slope2 > steepest2 ? slope2 : steepest2;
+    }
+  // a point y within reach lies over these vertices' cells, at most `highest` high, its normal's
+  // slant sqrt(1 + g^2) at most sqrt(1 + steepest2): its distance (z_y - h) / slant is at least
+  // (l_z - reach - highest) / sqrt(1 + steepest2) >= clearance - reach while that is positive
+  double clearance = (l[2] - highest) / sqrt(1.0 + steepest2);
+  return clearance > 0.0 ? clearance * (1.0 - 1e-9) : -INFINITY;
+}
+
+double vsc_geom_distance_bound(const vsc_geom* g, const double point[3], double reach) {
+  double n[3];
+  if (g->type != VSC_GEOM_HEIGHTFIELD) return vsc_geom_distance(g, point, n);
+  if (!g->heightfield || g->heightfield->rows < 2 || g->heightfield->columns < 2) return -INFINITY;
+  double l[3];
+  to_local(g, point, l);
+  return heightfield_distance_bound(g->heightfield, l, reach);
+}
+
 double vsc_geom_distance(const vsc_geom* g, const double point[3], double normal[3]) {
   double l[3], n[3], d;
   if (g->type == VSC_GEOM_PLANE) {  // the common floor: one dot product with the local z axis

@@ -64,6 +64,14 @@ typedef struct vsc_geom {
 /// inside, and the outward unit normal at the closest surface point (world).
 double vsc_geom_distance(const vsc_geom* geom, const double point[3], double normal[3]);
 
+/// A distance (m) that changes no faster than a point moves, for skipping pairs that cannot
+/// touch: every point y within `reach` (m) of `point` for which bound - |y - point| > 0 lies
+/// at least that far from the surface (and outside). The exact signed distance for the
+/// primitives (it changes no faster); for a height field, whose distance jumps at its sides
+/// and turns with its normal, the height above its highest vertex near `point` (within reach,
+/// in x and y) over the steepest normal's slant there, or -infinity when not above them.
+double vsc_geom_distance_bound(const vsc_geom* geom, const double point[3], double reach);
+
 /// out += scale (f, torque + arm x f): a force f (N) with a torque (N m, NULL:
 /// none), as a wrench about a reference point `arm` (m) behind the force's point
 /// (out: force N, torque N m). The one wrench accumulation of the core and the
