@@ -26,7 +26,7 @@ double vsc_contact_lists_memory_bytes(int spheres) {
   double sweep = rebuilds_geoms_alone(spheres) ? sizeof(int) * (3.0 * SELF_PAIRS_PER_SPHERE + 4.0) : 0.0;
   return sizeof(vsc_contact_lists) +
          (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + geom_lists) +
-                            18.0 * sizeof(double) + sweep);
+                            22.0 * sizeof(double) + sweep);
 }
 
 vsc_contact_lists* vsc_contact_lists_create(int spheres) {
@@ -50,7 +50,7 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   l->sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->geom_sphere_xyz = (double*)malloc(sizeof(double) * 3 * (size_t)spheres);
   l->segment = (double*)malloc(sizeof(double) * 4 * (size_t)spheres);
-  l->moved = (double*)malloc(sizeof(double) * 8 * (size_t)spheres);
+  l->moved = (double*)malloc(sizeof(double) * 12 * (size_t)spheres);
   if (!l->self_pairs || !l->self_distance || !l->geom_pairs || !l->geom_distance ||
       (rebuilds_geoms_alone(spheres) && (!l->merged_pairs || !l->merged_distance || !l->sweep_order ||
                                          !l->sweep_pairs)) || !l->sphere_xyz ||
@@ -304,6 +304,18 @@ static void build_self_direct(vsc_rod* rod, build* b) {
     }
     order[j] = item;
   }
+  // the midpoints and grown half lengths in that order, side by side
+  double* sorted_x = half + segments;
+  double* sorted_y = sorted_x + segments;
+  double* sorted_z = sorted_y + segments;
+  double* sorted_half = sorted_z + segments;
+  double* excess = sorted_half + segments;  // per sorted segment: squared distance less squared reach
+  for (int k = 0; k < segments; ++k) {
+    sorted_x[k] = mx[order[k]];
+    sorted_y[k] = my[order[k]];
+    sorted_z[k] = mz[order[k]];
+    sorted_half[k] = half[order[k]];
+  }
   // the candidates (lo, hi), counted per lo and per hi
   int* lo_count = order + segments;       // segments + 1 each: counts, then each bucket's first slot
   int* hi_count = lo_count + segments + 1;
@@ -312,15 +324,23 @@ static void build_self_direct(vsc_rod* rod, build* b) {
   int *found_lo = l->sweep_pairs, *found_hi = found_lo + capacity, *by_hi = found_hi + capacity;
   memset(lo_count, 0, sizeof(int) * 2 * ((size_t)segments + 1));
   for (int k = 0; k < segments; ++k) {
-    int a = order[k];
     // apart in x by more than both grown half lengths, no pair can pass the test below (the
     // slack keeps every pair it could pass)
-    double x = mx[a], window = (half[a] + widest) * (1.0 + 1e-9);
-    for (int j = k + 1; j < segments && mx[order[j]] - x <= window; ++j) {
+    double x = sorted_x[k], y = sorted_y[k], z = sorted_z[k], ha = sorted_half[k];
+    double window = (ha + widest) * (1.0 + 1e-9);
+    int end = k + 1;
+    while (end < segments && sorted_x[end] - x <= window) ++end;
+    // the squared midpoint distance less the squared reach, as testing every pair computes it
+    // (a difference's square and a sum do not depend on the pair's order)
+    for (int j = k + 1; j < end; ++j) {
+      double dx = sorted_x[j] - x, dy = sorted_y[j] - y, dz = sorted_z[j] - z, r = ha + sorted_half[j];
+      excess[j] = dx * dx + dy * dy + dz * dz - r * r;
+    }
+    int a = order[k];
+    for (int j = k + 1; j < end; ++j) {
+      if (!(excess[j] <= 0.0)) continue;
       int c = order[j], lo = a < c ? a : c, hi = a < c ? c : a;
       if (hi - lo < rod->self_gap) continue;
-      double dx = mx[hi] - mx[lo], dy = my[hi] - my[lo], dz = mz[hi] - mz[lo], r = half[lo] + half[hi];
-      if (!(dx * dx + dy * dy + dz * dz - r * r <= 0.0)) continue;
       if (candidates >= capacity) {  // more candidates than the list holds pairs: test them all
         build_self_every_pair(rod, b);
         return;

@@ -41,7 +41,8 @@ struct vsc_contact_lists {
   double* segment_moved;      // per segment: the larger of its two spheres' `moved` (m)
   double* geom_moved;         // per sphere: distance moved since the spheres' snapshot at the last whole
                               // geom build (m); a geom rebuilt alone since then keeps its own pose
-  double* build_scratch;      // per segment, during a self build: midpoint (3), grown half length (m)
+  double* build_scratch;      // per segment, during a self build: midpoint (3), grown half length (m), the
+                              // same in x order (4), squared distance less squared reach (m^2)
   int* sweep_order;           // a self build's segments by midpoint x, kept for the next (segments), then
                               // its candidates' counts and slots per lo and per hi (3 x segments + 2)
   int* sweep_pairs;           // a self build's candidates: their los, his, then los by hi (3 x self_capacity)
