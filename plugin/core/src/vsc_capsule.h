@@ -10,9 +10,15 @@
 // Closest points P = p0 + s (p1 - p0), Q = q0 + t (q1 - q0) of two segments
 // (Ericson, Real-Time Collision Detection, 5.1.9).
 // x clamped to [0, 1], NaN to 0 (as fmin(fmax(x, 0), 1), which compiles to
-// library calls without -ffast-math; this runs for every self-contact pair)
-static inline double vsc_clamp01(double x) { return x > 0.0 ? (x < 1.0 ? x : 1.0) : 0.0; }
+// library calls without -ffast-math; this runs for every self-contact pair). Two
+// unconditional selects, so that loops over it vectorise.
+static inline double vsc_clamp01(double x) {
+  double above = x > 0.0 ? x : 0.0;
+  return above < 1.0 ? above : 1.0;
+}
 
+// Every quotient and comparison is computed, then the right one selected (no branch): the
+// narrow phase's batches run this in a loop the compiler vectorises (vsc_contact.c).
 static inline void vsc_closest_segments(const double* p0, const double* p1, const double* q0, const double* q1, double* s_out,
                              double* t_out) {
   double d1[3], d2[3], r[3];
@@ -24,28 +30,20 @@ static inline void vsc_closest_segments(const double* p0, const double* p1, cons
   double aa = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
   double e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
   double f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
-  double s = 0.0, t = 0.0, tiny = 1e-30;
-  if (aa <= tiny && e <= tiny) {
-    s = t = 0.0;
-  } else if (aa <= tiny) {
-    t = vsc_clamp01(f / e);
-  } else {
-    double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
-    if (e <= tiny) {
-      s = vsc_clamp01(-c / aa);
-    } else {
-      double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b;
-      s = denominator > 0.0 ? vsc_clamp01((b * f - c * e) / denominator) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0.0) {
-        t = 0.0;
-        s = vsc_clamp01(-c / aa);
-      } else if (t > 1.0) {
-        t = 1.0;
-        s = vsc_clamp01((b - c) / aa);
-      }
-    }
-  }
+  double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
+  double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b, tiny = 1e-30;
+  // the interior's s; s when t clamps to 0 or 1; t when segment a is a point
+  double inner = vsc_clamp01((b * f - c * e) / denominator), low = vsc_clamp01(-c / aa);
+  double high = vsc_clamp01((b - c) / aa), alone = vsc_clamp01(f / e);
+  double s_inner = denominator > 0.0 ? inner : 0.0;  // parallel: any s, take 0
+  double t_inner = (b * s_inner + f) / e;
+  int below = t_inner < 0.0, above = t_inner > 1.0, a_point = aa <= tiny, b_point = e <= tiny;
+  double s = below ? low : (above ? high : s_inner);
+  double t = below ? 0.0 : (above ? 1.0 : t_inner);
+  s = b_point ? low : s;  // segment b a point
+  t = b_point ? 0.0 : t;
+  s = a_point ? 0.0 : s;  // segment a a point (both: 0, 0)
+  t = a_point ? (b_point ? 0.0 : alone) : t;
   *s_out = s;
   *t_out = t;
 }

@@ -179,8 +179,8 @@ static void self_pair(void* context, int earlier, int item) {
 
 // The listed self pairs the skip filter keeps go through the narrow phase in batches: their
 // endpoints gathered side by side, the closest points of a whole batch computed in one loop
-// the compiler vectorises (vsc_capsule.h's arithmetic, each branch's value computed and the
-// right one selected: the same bits), then each pair's contact kept in the list's order.
+// the compiler vectorises (vsc_capsule.h's, branch-free: the same bits one by one), then each
+// pair's contact kept in the list's order.
 #define SELF_BATCH 64
 
 typedef struct self_batch {
@@ -195,51 +195,19 @@ typedef struct self_batch {
 VSC_VECTOR_CLONES static void closest_points_batch(int count, const double (*restrict end)[SELF_BATCH],
                                                    double* restrict s_out, double* restrict t_out,
                                                    double (*restrict d)[SELF_BATCH], double* restrict distance2) {
-  const double tiny = 1e-30;
   for (int i = 0; i < count; ++i) {
     double p0[3] = {end[0][i], end[1][i], end[2][i]}, p1[3] = {end[3][i], end[4][i], end[5][i]};
     double q0[3] = {end[6][i], end[7][i], end[8][i]}, q1[3] = {end[9][i], end[10][i], end[11][i]};
-    double d1[3], d2[3], r[3];
-    for (int a = 0; a < 3; ++a) {
-      d1[a] = p1[a] - p0[a];
-      d2[a] = q1[a] - q0[a];
-      r[a] = p0[a] - q0[a];
-    }
-    double aa = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
-    double e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
-    double f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
-    double c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
-    double b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2], denominator = aa * e - b * b;
-    // every quotient and comparison unconditionally, then selected (one evaluated under a
-    // condition would keep the loop scalar); clamp01 as vsc_clamp01, NaN to 0
-    double inner = (b * f - c * e) / denominator, low = -c / aa, high = (b - c) / aa, alone = f / e;
-    inner = inner > 0.0 ? inner : 0.0;
-    inner = inner < 1.0 ? inner : 1.0;
-    low = low > 0.0 ? low : 0.0;
-    low = low < 1.0 ? low : 1.0;
-    high = high > 0.0 ? high : 0.0;
-    high = high < 1.0 ? high : 1.0;
-    alone = alone > 0.0 ? alone : 0.0;
-    alone = alone < 1.0 ? alone : 1.0;
-    double s_inner = denominator > 0.0 ? inner : 0.0;
-    double t_inner = (b * s_inner + f) / e;
-    int below = t_inner < 0.0, above = t_inner > 1.0, a_point = aa <= tiny, b_point = e <= tiny;
-    double s = below ? low : (above ? high : s_inner);
-    double t = below ? 0.0 : (above ? 1.0 : t_inner);
-    s = b_point ? low : s;  // segment b a point
-    t = b_point ? 0.0 : t;
-    s = a_point ? 0.0 : s;  // segment a a point (both: 0, 0)
-    t = a_point ? (b_point ? 0.0 : alone) : t;
+    double s, t;
+    vsc_closest_segments(p0, p1, q0, q1, &s, &t);
     s_out[i] = s;
     t_out[i] = t;
-    double squared = 0.0;
     for (int a = 0; a < 3; ++a) {
       double P = (1.0 - s) * p0[a] + s * p1[a];
       double Q = (1.0 - t) * q0[a] + t * q1[a];
       d[a][i] = P - Q;
     }
-    squared = d[0][i] * d[0][i] + d[1][i] * d[1][i] + d[2][i] * d[2][i];
-    distance2[i] = squared;
+    distance2[i] = d[0][i] * d[0][i] + d[1][i] * d[1][i] + d[2][i] * d[2][i];
   }
 }
 
