@@ -175,6 +175,7 @@ static void heightfield_bound_holds(void) {
   field.vertices = vertices;
   vsc_geom g = make(VSC_GEOM_HEIGHTFIELD, 0, 0, 0);
   g.heightfield = &field;
+  g.is_static = 1;
   double reach = 0.0125;
   int bounded = 0, violations = 0;
   for (int k = 0; k < 4000; ++k) {
@@ -192,6 +193,19 @@ static void heightfield_bound_holds(void) {
   ENSURE(violations == 0);
   ENSURE(bounded > 4000);  // most points high above it are bounded
   printf("  %d moves bounded, %d below their bound\n", bounded, violations);
+  // the bound read from the elevations equals the one from the vertex records; a height field
+  // that may move or turn is never bounded
+  vsc_heightfield derived = field;
+  derived.vertices = NULL;
+  vsc_geom plain = g;
+  plain.heightfield = &derived;
+  for (int k = 0; k < 200; ++k) {
+    double x[3] = {0.12 * sin(1.9 * k), 0.1 * cos(0.8 * k), 0.05 * sin(0.4 * k) + 0.03};
+    ENSURE(vsc_geom_distance_bound(&plain, x, reach) == vsc_geom_distance_bound(&g, x, reach));
+  }
+  g.is_static = 0;
+  double above[3] = {0.0, 0.0, 0.5};
+  ENSURE(vsc_geom_distance_bound(&g, above, reach) == -INFINITY);
 }
 
 int main(void) {

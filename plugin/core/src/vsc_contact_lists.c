@@ -24,7 +24,7 @@ static int rebuilds_geoms_alone(int spheres) { return spheres <= DIRECT_BUILD_SP
 double vsc_contact_lists_memory_bytes(int spheres) {
   double geom_lists = rebuilds_geoms_alone(spheres) ? 2.0 * GEOM_PAIRS_PER_SPHERE : GEOM_PAIRS_PER_SPHERE;
   double sweep = rebuilds_geoms_alone(spheres) ? sizeof(int) * (3.0 * SELF_PAIRS_PER_SPHERE + 4.0) : 0.0;
-  return sizeof(vsc_contact_lists) +
+  return sizeof(vsc_contact_lists) + (rebuilds_geoms_alone(spheres) ? 4.0 * sizeof(int) : 0.0) +
          (double)spheres * ((2.0 * sizeof(int) + sizeof(double)) * (SELF_PAIRS_PER_SPHERE + geom_lists) +
                             22.0 * sizeof(double) + sweep);
 }
@@ -287,13 +287,18 @@ static void build_self_direct(vsc_rod* rod, build* b) {
   double* my = mx + segments;
   double* mz = my + segments;
   double* half = mz + segments;
-  double widest = 0.0;
+  double widest = 0.0, sum = 0.0;
   for (int a = 0; a < segments; ++a) {
     mx[a] = seg[4 * a];
     my[a] = seg[4 * a + 1];
     mz[a] = seg[4 * a + 2];
     half[a] = seg[4 * a + 3] + 0.5 * limit;
     widest = half[a] > widest ? half[a] : widest;
+    sum += mx[a] + my[a] + mz[a] + half[a];
+  }
+  if (!isfinite(sum)) {  // a diverged chain: no order to sort by, test every pair as before
+    build_self_every_pair(rod, b);
+    return;
   }
   int* order = l->sweep_order;  // segment indices by midpoint x
   for (int k = 1; k < segments; ++k) {

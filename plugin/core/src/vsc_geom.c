@@ -262,6 +262,9 @@ static double heightfield_distance_bound(const vsc_heightfield* h, const double 
 double vsc_geom_distance_bound(const vsc_geom* g, const double point[3], double reach) {
   double n[3];
   if (g->type != VSC_GEOM_HEIGHTFIELD) return vsc_geom_distance(g, point, n);
+  // a moving one: a turn moves a point's local place by its distance from the origin times the
+  // turn, which the lists' geom motion bound does not cover for every point near the field
+  if (!g->is_static) return -INFINITY;
   if (!g->heightfield || g->heightfield->rows < 2 || g->heightfield->columns < 2) return -INFINITY;
   double l[3];
   to_local(g, point, l);

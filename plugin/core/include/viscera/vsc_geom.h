@@ -30,8 +30,8 @@ typedef struct vsc_heightfield {
   const float* elevation;   ///< rows x columns values in [0, 1], times size[2] (m)
   double size[4];           ///< half x, half y, top elevation, base depth (m)
   const double* vertices;   ///< optional, host-owned (NULL: derived at every query): per grid vertex, row by
-                            ///< row, its height (m) and slopes dz/dx, dz/dy (3 x rows x columns), written once
-                            ///< by vsc_heightfield_vertices(); they only change with the model
+                            ///< row, its height (m) and slopes dz/dx, dz/dy (3 x rows x columns), written
+                            ///< by vsc_heightfield_vertices() whenever `elevation` changes (the plugin: at load)
 } vsc_heightfield;
 
 /// Number of doubles vsc_heightfield_vertices() writes for `h`.
@@ -69,7 +69,8 @@ double vsc_geom_distance(const vsc_geom* geom, const double point[3], double nor
 /// at least that far from the surface (and outside). The exact signed distance for the
 /// primitives (it changes no faster); for a height field, whose distance jumps at its sides
 /// and turns with its normal, the height above its highest vertex near `point` (within reach,
-/// in x and y) over the steepest normal's slant there, or -infinity when not above them.
+/// in x and y) over the steepest normal's slant there, or -infinity when not above them (and
+/// for a height field that is not static).
 double vsc_geom_distance_bound(const vsc_geom* geom, const double point[3], double reach);
 
 /// out += scale (f, torque + arm x f): a force f (N) with a torque (N m, NULL:
