@@ -48,20 +48,27 @@ static inline void vsc_closest_segments(const double* p0, const double* p1, cons
   *t_out = t;
 }
 
+// Closest points of segments p0-p1 and q0-q1: their parameters s, t, the vector d from the
+// second's point to the first's (m), and its squared length (m^2).
+static inline double vsc_segment_points_gap2(const double* p0, const double* p1, const double* q0, const double* q1,
+                                             double* s_out, double* t_out, double d[3]) {
+  double s, t;
+  vsc_closest_segments(p0, p1, q0, q1, &s, &t);
+  *s_out = s;
+  *t_out = t;
+  for (int c = 0; c < 3; ++c) {
+    double P = (1.0 - s) * p0[c] + s * p1[c];
+    double Q = (1.0 - t) * q0[c] + t * q1[c];
+    d[c] = P - Q;
+  }
+  return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+}
+
 // Capsule contact of segments a < b (segment k joins spheres k and k + 1).
 // Closest points of segments a (sphere a to a + 1) and b of the sphere chain x:
 // their parameters s, t, the vector d from b's point to a's (m), its length (m).
 static inline double vsc_segment_gap(const double* x, int a, int b, double* s_out, double* t_out, double d[3]) {
-  double s, t;
-  vsc_closest_segments(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, &s, &t);
-  *s_out = s;
-  *t_out = t;
-  for (int c = 0; c < 3; ++c) {
-    double P = (1.0 - s) * x[3 * a + c] + s * x[3 * a + 3 + c];
-    double Q = (1.0 - t) * x[3 * b + c] + t * x[3 * b + 3 + c];
-    d[c] = P - Q;
-  }
-  return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  return sqrt(vsc_segment_points_gap2(x + 3 * a, x + 3 * a + 3, x + 3 * b, x + 3 * b + 3, s_out, t_out, d));
 }
 
 #endif  // VISCERA_SRC_VSC_CAPSULE_H

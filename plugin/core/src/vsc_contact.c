@@ -198,16 +198,9 @@ VSC_VECTOR_CLONES static void closest_points_batch(int count, const double (*res
   for (int i = 0; i < count; ++i) {
     double p0[3] = {end[0][i], end[1][i], end[2][i]}, p1[3] = {end[3][i], end[4][i], end[5][i]};
     double q0[3] = {end[6][i], end[7][i], end[8][i]}, q1[3] = {end[9][i], end[10][i], end[11][i]};
-    double s, t;
-    vsc_closest_segments(p0, p1, q0, q1, &s, &t);
-    s_out[i] = s;
-    t_out[i] = t;
-    for (int a = 0; a < 3; ++a) {
-      double P = (1.0 - s) * p0[a] + s * p1[a];
-      double Q = (1.0 - t) * q0[a] + t * q1[a];
-      d[a][i] = P - Q;
-    }
-    distance2[i] = d[0][i] * d[0][i] + d[1][i] * d[1][i] + d[2][i] * d[2][i];
+    double gap[3];
+    distance2[i] = vsc_segment_points_gap2(p0, p1, q0, q1, s_out + i, t_out + i, gap);
+    for (int a = 0; a < 3; ++a) d[a][i] = gap[a];
   }
 }
 

@@ -198,6 +198,14 @@ void vsc_heightfield_vertices(const vsc_heightfield* h, double* out) {
     }
 }
 
+// Vertex (row, column)'s height and slopes: its record, or derived into `scratch` (3).
+static const double* heightfield_vertex(const vsc_heightfield* h, int row, int column, double* scratch) {
+  if (h->vertices) return h->vertices + 3 * (row * h->columns + column);
+  scratch[0] = heightfield_elevation(h, row, column);
+  heightfield_vertex_slope(h, row, column, scratch + 1);
+  return scratch;
+}
+
 static double heightfield_distance(const vsc_heightfield* h, const double l[3], double n[3]) {
   n[0] = 0.0; n[1] = 0.0; n[2] = 1.0;
   double fx = (l[0] + h->size[0]) / (2.0 * h->size[0]) * (h->columns - 1);
@@ -211,12 +219,8 @@ static double heightfield_distance(const vsc_heightfield* h, const double l[3], 
   int rows[4] = {r0, r0, r0 + 1, r0 + 1}, columns[4] = {c0, c0 + 1, c0, c0 + 1};
   double height = 0.0, dx = 0.0, dy = 0.0;
   for (int k = 0; k < 4; ++k) {
-    double derived[3];
-    const double* vertex = h->vertices ? h->vertices + 3 * (rows[k] * h->columns + columns[k]) : derived;
-    if (!h->vertices) {
-      derived[0] = heightfield_elevation(h, rows[k], columns[k]);
-      heightfield_vertex_slope(h, rows[k], columns[k], derived + 1);
-    }
+    double scratch[3];
+    const double* vertex = heightfield_vertex(h, rows[k], columns[k], scratch);
     height += weight[k] * vertex[0];
     dx += weight[k] * vertex[1];
     dy += weight[k] * vertex[2];
@@ -242,12 +246,8 @@ static double heightfield_distance_bound(const vsc_heightfield* h, const double 
   double highest = -INFINITY, steepest2 = 0.0;
   for (int row = r0; row <= r1; ++row)
     for (int column = c0; column <= c1; ++column) {
-      double derived[3];
-      const double* vertex = h->vertices ? h->vertices + 3 * (row * h->columns + column) : derived;
-      if (!h->vertices) {
-        derived[0] = heightfield_elevation(h, row, column);
-        heightfield_vertex_slope(h, row, column, derived + 1);
-      }
+      double scratch[3];
+      const double* vertex = heightfield_vertex(h, row, column, scratch);
       highest = vertex[0] > highest ? vertex[0] : highest;
       double slope2 = vertex[1] * vertex[1] + vertex[2] * vertex[2];
       steepest2 = slope2 > steepest2 ? slope2 : steepest2;
