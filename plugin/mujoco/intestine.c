@@ -403,6 +403,10 @@ static void intestine_compute(const mjModel* m, mjData* d, int instance, int cap
 static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* q) {
   it->checked_start = 1;
   if (world->geom_count <= 0) return;
+  // the advice is about the config's start: a state set since (mj_setState of a snapshot taken
+  // while a tool pressed the bowel, a task's settled start) is the user's own, not a misplaced start
+  const double* positions = q + it->layout.offset[VSC_STATE_POSITIONS];
+  if (memcmp(positions, it->initial_q, sizeof(double) * 3 * (size_t)it->config.rod.control_count) != 0) return;
   vsc_deepest_contact deepest;
   vsc_rod_contact_energy(it->rod, world, q, &deepest);
   if (deepest.geom < 0 || !(deepest.depth > VSC_DEEP_CONTACT * vsc_rod_sphere_radii(it->rod)[deepest.sphere])) return;

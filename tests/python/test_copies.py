@@ -115,6 +115,17 @@ CASES = {
         fresh = mujoco.MjData(mi)
         mujoco.mj_step(mi, fresh)  # a new data checks its own start
         assert sum("starts inside geom" in text for text in messages) == 2, messages
+        # a state set before the first step is the user's, not the config's start: a snapshot taken
+        # while a geom pressed the tube deep (here the start itself, lowered 8 mm) gives no advice
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        snapshot = np.zeros(mujoco.mj_stateSize(mi, spec))
+        mujoco.mj_getState(mi, mujoco.MjData(mi), snapshot, spec)
+        gut = viscera.intestines(mi)[0]
+        restored = mujoco.MjData(mi)
+        mujoco.mj_setState(mi, restored, snapshot, spec)
+        gut.positions(restored)[:, 2] -= 0.008
+        mujoco.mj_step(mi, restored)
+        assert sum("starts inside geom" in text for text in messages) == 2, messages
         mujoco.set_mju_user_warning(None)
     """,
 }
