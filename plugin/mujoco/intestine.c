@@ -66,6 +66,7 @@ typedef struct intestine {
   double* partner_waking_speed;  // per instance of the model: a sphere faster than this (m/s) wakes what it
                                  // presses of it (VSC_SLEEP_GEOM_SPEED_SHARE of its rest_speed)
   double* load;           // the loads several lower instances handed over this step, summed (3 per point, N)
+  unsigned char* pressed_by_several;  // per capsule: several lower instances' `pressed` flags for this one, or-ed
 } intestine;
 
 static void intestine_free(intestine* it) {
@@ -87,6 +88,7 @@ static void intestine_free(intestine* it) {
   free(it->all_geoms);
   free(it->all_wrench);
   free(it->load);
+  free(it->pressed_by_several);
   free(it);
 }
 
@@ -110,7 +112,9 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
   it->load = (double*)calloc(3 * (size_t)n, sizeof(double));
-  if (!it->initial_q || !it->geom_wrench || !it->load || vsc_mujoco_geoms_create(m, &it->world)) {
+  it->pressed_by_several = (unsigned char*)calloc((size_t)it->config.rod.collision_sphere_count, 1);
+  if (!it->initial_q || !it->geom_wrench || !it->load || !it->pressed_by_several ||
+      vsc_mujoco_geoms_create(m, &it->world)) {
     strcpy(error, "viscera.intestine: out of memory");
     intestine_free(it);
     return NULL;
@@ -553,24 +557,27 @@ static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
   return g;
 }
 
-// The sleeping points of this instance that a lower one's moving spheres
-// pressed this step wake (the capsules it flagged, read from its own buffer):
-// a load from a partner at rest lets them sleep, as a resting geom does.
-static void wake_pressed(const mjModel* m, const mjData* d, intestine* it, int instance, mjtNum* state) {
-  int spheres = it->config.rod.collision_sphere_count;
-  const double* q = state + it->layout.offset[VSC_STATE_POSITIONS];
-  double* rest = state + it->layout.offset[VSC_STATE_REST];
+// The capsules of this instance that the lower ones' moving spheres pressed
+// this step, which the step wakes (vsc_world.wake_capsules): one's flags as they
+// are, read from its own buffer, several or-ed into this one's. NULL if none did.
+// A load from a partner at rest lets the points under it sleep, as a resting geom does.
+static const unsigned char* pressed_capsules(const mjModel* m, const mjData* d, intestine* it, int instance) {
+  const unsigned char* pressed = NULL;
+  int senders = 0, capsules = it->config.rod.collision_sphere_count - 1;
   for (int i = 0; i < instance; ++i) {
     if (m->plugin[i] != it->plugin_slot) continue;
     const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
     if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
-    const unsigned char* pressed = lower->pressed + lower->pressed_offset[instance];
-    for (int c = 0; c + 1 < spheres; ++c)
-      if (pressed[c]) {  // the points either sphere of capsule c depends on
-        vsc_sleep_wake_sphere(it->rod, c, q, rest);
-        vsc_sleep_wake_sphere(it->rod, c + 1, q, rest);
-      }
+    const unsigned char* part = lower->pressed + lower->pressed_offset[instance];
+    if (++senders == 1) {
+      pressed = part;
+      continue;
+    }
+    if (senders == 2) memcpy(it->pressed_by_several, pressed, (size_t)capsules);
+    for (int c = 0; c < capsules; ++c) it->pressed_by_several[c] |= part[c];
+    pressed = it->pressed_by_several;
   }
+  return pressed;
 }
 
 // The loads the lower instances handed this one this step (they advanced
@@ -606,7 +613,7 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   model_gravity(m, world.gravity);
   mjtNum* slept_under = state + l.offset[VSC_STATE_GRAVITY];  // a new gravity wakes every point
   if (memcmp(slept_under, world.gravity, sizeof(world.gravity)) != 0) {
-    vsc_rest_wake_all(it->config.rod.control_count, state + l.offset[VSC_STATE_POSITIONS], state + l.offset[VSC_STATE_REST]);
+    world.wake_all = 1;
     memcpy(slept_under, world.gravity, sizeof(world.gravity));
   }
   if (world.geom_count > 0) vsc_mujoco_geoms_update(m, d, it->config.friction, &it->world);
@@ -623,7 +630,7 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
   const double* load = received_load(m, d, it, instance);
   if (load) {
-    wake_pressed(m, d, it, instance, state);
+    world.wake_capsules = pressed_capsules(m, d, it, instance);
     world.control_load = load;
   }
   world.grasps = it->holds.grasps;

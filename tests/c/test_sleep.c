@@ -350,8 +350,33 @@ static void sleeping_needs_the_lumped_matrix_and_an_explicit_step(void) {
   vsc_rod_destroy(rod);
 }
 
+// The host's wakes come in the world and act as the step begins: a capsule another rod's moving
+// spheres pressed wakes the points its two spheres depend on, and only those; a new gravity, all.
+static void the_host_wakes_what_the_world_names(void) {
+  static bed b;
+  lie_down(&b);
+  unsigned char pressed[80] = {0};
+  pressed[40] = 1;  // spheres 40 and 41 of 81: the middle of the rod
+  b.world.wake_capsules = pressed;
+  ENSURE(step_bed(&b, NULL) == VSC_OK);
+  b.world.wake_capsules = NULL;
+  int woke = 0;
+  for (int k = 0; k < N; ++k) {
+    int awake = b.rest[VSC_REST_SIZE * k] < b.options.sleep.rest_time;
+    woke += awake;
+    if (awake) ENSURE(abs(2 * k - (N - 1)) <= 4);  // within the two spheres' spline support
+  }
+  ENSURE(woke >= 4 && woke <= 5);
+  settle(b.rod, &b.world, b.q, b.v, b.stick, b.rest, &b.options);
+  b.world.wake_all = 1;
+  ENSURE(step_bed(&b, NULL) == VSC_OK);
+  b.world.wake_all = 0;
+  ENSURE(asleep_count(b.rest, &b.options) == 0);
+}
+
 int main(void) {
   RUN(a_resting_rod_sleeps_where_it_lies);
+  RUN(the_host_wakes_what_the_world_names);
   RUN(a_ball_pressing_wakes_only_where_it_presses);
   RUN(a_ball_pushing_aside_moves_it_as_without_sleep);
   RUN(a_sinking_support_never_leaves_it_hanging);

@@ -41,6 +41,17 @@ void vsc_sleep_wake_sphere(const vsc_rod* rod, int sphere, const double* q, doub
   for (int k = b->first; k < b->first + VSC_SPLINE_SUPPORT; ++k) restart_rest(rest, q, k);
 }
 
+void vsc_sleep_host_wakes(const vsc_rod* rod, const vsc_world* world, const double* q, double* rest) {
+  if (!rest) return;
+  if (world->wake_all) vsc_rest_wake_all(rod->n, q, rest);
+  if (!world->wake_capsules) return;
+  for (int c = 0; c + 1 < rod->def.collision_sphere_count; ++c)
+    if (world->wake_capsules[c]) {
+      vsc_sleep_wake_sphere(rod, c, q, rest);
+      vsc_sleep_wake_sphere(rod, c + 1, q, rest);
+    }
+}
+
 // 1 if point k at q (m) is within rest_speed x rest_time of where its rest began.
 static int within_rest(const vsc_sleep_options* options, const double* q, const double* rest, int k) {
   const double *x = q + 3 * k, *r = rest + VSC_REST_SIZE * k + VSC_REST_ANCHOR;

@@ -7,6 +7,11 @@
 #include "viscera/vsc_sleep.h"
 #include "vsc_context.h"
 
+/// The host's wakes, as the step begins and whether or not the rod sleeps (the
+/// records are the host's state): every point's rest starts over at q (m) with
+/// world->wake_all, and those under each capsule world->wake_capsules flags.
+void vsc_sleep_host_wakes(const vsc_rod* rod, const vsc_world* world, const double* q, double* rest);
+
 /// Set the rod's sleeping flags (rod->work.asleep, sphere_asleep, asleep_count)
 /// from the rest records (VSC_REST_SIZE per point; NULL or options disabled:
 /// none sleeps) and zero the sleeping points' velocities v (m/s, 3n). A

@@ -116,6 +116,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
       !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
     return VSC_ERROR_INVALID_ARGUMENT;
+  vsc_sleep_host_wakes(rod, world, q, rest);
   int sleeping = rest && o.sleep.enabled;
   if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||
                    !(o.sleep.rest_speed >= 0.0) || !(o.sleep.rest_time > 0.0)))

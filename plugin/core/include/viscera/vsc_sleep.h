@@ -23,8 +23,9 @@
 //   support sliding away slowly must not leave it hanging) or presses it
 //   deeper than VSC_SLEEP_WAKE_DEPTH radii (a mocap body moves without a
 //   velocity), or a segment of the rod whose points moved; when a jaw holds it; when, next to awake
-//   points, the forces on it change; and, in the host, when gravity changes
-//   or on a reset.
+//   points, the forces on it change; when the host's world says so as the
+//   step begins (vsc_world.h: a new gravity wakes every point, another rod's
+//   moving spheres the points under the capsules they pressed); and on a reset.
 // Sleeping needs the lumped mass matrix and an explicit integrator: the
 // consistent matrix couples every point to its neighbours' accelerations and
 // the implicit step solves for all of them, so neither can hold part of the

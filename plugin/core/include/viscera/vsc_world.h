@@ -21,6 +21,11 @@ typedef struct vsc_world {
   const double* control_load;  ///< optional: forces on the control points, constant over the step
                                ///< (generalized, N, 3 per point; e.g. another rod's contacts, which
                                ///< that rod computed and the host handed over); NULL: none
+  int wake_all;                ///< 1: every control point wakes as the step begins (the host's gravity
+                               ///< changed; vsc_sleep.h)
+  const unsigned char* wake_capsules;  ///< optional, per capsule c (spheres c and c + 1): 1 where another
+                                       ///< rod's moving spheres pressed it, so the points either sphere
+                                       ///< depends on wake as the step begins; NULL: none
 } vsc_world;
 
 /// Where a step or a lone force evaluation writes the reactions on the host's
