@@ -404,15 +404,15 @@ static void intestine_compute(const mjModel* m, mjData* d, int instance, int cap
 // pile squeezed against pinned parts sinks more (1.7 mm, 0.16 r, in the
 // anatomical abdomen's bank): only the push-out's own depth, VSC_DEEP_CONTACT
 // radii, counts.
-static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* q) {
+static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* state) {
   it->checked_start = 1;
   if (world->geom_count <= 0) return;
   // the advice is about the config's start: a state set since (mj_setState of a snapshot taken
   // while a tool pressed the bowel, a task's settled start) is the user's own, not a misplaced start
-  const double* positions = q + it->layout.offset[VSC_STATE_POSITIONS];
+  const double* positions = state + it->layout.offset[VSC_STATE_POSITIONS];
   if (memcmp(positions, it->initial_q, sizeof(double) * 3 * (size_t)it->config.rod.control_count) != 0) return;
   vsc_deepest_contact deepest;
-  vsc_rod_contact_energy(it->rod, world, q, &deepest);
+  vsc_rod_contact_energy(it->rod, world, positions, &deepest);
   if (deepest.geom < 0 || !(deepest.depth > VSC_DEEP_CONTACT * vsc_rod_sphere_radii(it->rod)[deepest.sphere])) return;
   int g = it->world.ids[deepest.geom];
   const char* name = mj_id2name(m, mjOBJ_GEOM, g);
@@ -458,7 +458,7 @@ static int restart_if_not_finite(const mjModel* m, intestine* it, int instance, 
 // Once per data, at its first step (init also runs inside MuJoCo's compiler, on
 // a model whose flags are not the scene's): the model's flags the user rarely
 // means, and a start inside a geom.
-static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* q) {
+static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, const mjtNum* state) {
   int passive_off = (m->opt.disableflags & mjDSBL_SPRING) && (m->opt.disableflags & mjDSBL_DAMPER);
   if (passive_off && world->geom_count > 0 && !it->warned_passive_off) {
     // mj_passive returns before plugin compute when both are off
@@ -471,7 +471,7 @@ static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, c
     mju_warning("viscera.intestine: the model disables contacts (<flag contact=\"disable\"/>): the "
                 "intestine passes through every geom (its self-collision is its own config key, "
                 "'self_collision')");
-  warn_start_inside(m, it, world, q);
+  warn_start_inside(m, it, world, state);
 }
 
 // 1 if this instance's 'exclude' names instance `other`.
