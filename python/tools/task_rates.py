@@ -4,7 +4,7 @@ written to docs/tasks/rates.json.
 
     python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
         [--policies scripted random nothing] [--max-steps N] [--scene abdomen|anatomical]
-        [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
+        [--time-limit-factor F] [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
 
 The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
 and doing nothing over 20 (random 90 s episodes are slow), from two runs:
@@ -27,6 +27,8 @@ The seeds start at 1000 by default: the policies were tuned on seeds below 200, 
 they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
 control step (seeded by the episode's seed); doing nothing holds every tool where the episode
 starts it (in the laparoscope's view).
+With --time-limit-factor F each episode lasts F times its task's time limit (the scripted policies
+plan for the limit they are given): how much of a shortfall is the time, not the gesture.
 Episodes run in worker processes, one per core.
 """
 
@@ -50,10 +52,14 @@ POLICIES = ("scripted", "random", "nothing")
 OUT = pathlib.Path("docs") / "tasks" / "rates.json"
 
 
-def episode(task: str, seed: int, policy: str, max_steps: int | None = None, scene: str = "abdomen") -> dict:
+def episode(task: str, seed: int, policy: str, max_steps: int | None = None, scene: str = "abdomen",
+            time_limit_factor: float = 1.0) -> dict:
     """One episode of `task` on `scene` from `seed` under `policy` (whole, or its first `max_steps`
-    control steps): success, simulated and wall seconds, the intestines' recoveries and divergences."""
-    env = viscera.tasks.load(task, seed=seed, scene=scene)
+    control steps), `time_limit_factor` times the task's time limit: success, simulated and wall
+    seconds, the intestines' recoveries and divergences."""
+    options = {} if time_limit_factor == 1.0 else {
+        "time_limit": viscera.tasks.base.SUITE[task].TIME_LIMIT_S * time_limit_factor}
+    env = viscera.tasks.load(task, seed=seed, scene=scene, **options)
     spec = env.action_spec()
     rng = np.random.RandomState(seed)
     act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
@@ -79,10 +85,10 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None, sce
 
 
 def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False,
-          max_steps: int | None = None, scene: str = "abdomen") -> dict:
+          max_steps: int | None = None, scene: str = "abdomen", time_limit_factor: float = 1.0) -> dict:
     """Per task and policy: the success rate over `seeds`, the seeds that succeeded, the median
     wall time per episode, the recoveries and divergences (each episode's, and their total)."""
-    jobs = [(task, seed, policy, max_steps, scene) for task in tasks for policy in policies for seed in seeds]
+    jobs = [(task, seed, policy, max_steps, scene, time_limit_factor) for task in tasks for policy in policies for seed in seeds]
     with concurrent.futures.ProcessPoolExecutor(workers or os.cpu_count()) as pool:
         rows = list(tqdm(pool.map(episode, *zip(*jobs)), total=len(jobs), desc="episodes", disable=quiet))
     out: dict = {}
@@ -116,13 +122,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=cli.output_file(".json"), help=f"where to write the rates (e.g. {OUT})")
     parser.add_argument("--scene", choices=sorted(viscera.tasks.scene.SCENES), default="abdomen",
                         help="the cavity the tasks load (default abdomen)")
+    parser.add_argument("--time-limit-factor", type=cli.positive_float, default=1.0,
+                        help="each episode lasts this many times its task's time limit (default 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     result = {"control_timestep_s": 0.02, "scene": args.scene,
               "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
               "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet, max_steps=args.max_steps,
-                             scene=args.scene)}
+                             scene=args.scene, time_limit_factor=args.time_limit_factor)}
+    if args.time_limit_factor != 1.0:
+        result["time_limit_factor"] = args.time_limit_factor
     if args.max_steps:
         result["max_control_steps"] = args.max_steps
     if args.merge:  # this run's policies over the merged file's

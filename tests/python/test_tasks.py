@@ -272,6 +272,16 @@ def test_random_actions_need_no_recovery():
         assert rows["random"]["recoveries_total"] == 0 and rows["random"]["divergences_total"] == 0, (task, rows)
 
 
+def test_the_rates_time_limit_factor_sets_the_episode_length():
+    """task_rates.py --time-limit-factor F plays each episode for F times its task's time limit:
+    doing nothing never succeeds, so the episode lasts exactly that long (grasp_lift's 15 s x 0.04,
+    30 control steps of 20 ms)."""
+    import task_rates
+    row = task_rates.episode("grasp_lift", 9100, "nothing", time_limit_factor=0.04)
+    assert not row["success"] and row["control_steps"] == 30
+    assert row["simulated_s"] == pytest.approx(viscera.tasks.base.SUITE["grasp_lift"].TIME_LIMIT_S * 0.04, abs=1e-9)
+
+
 @pytest.mark.parametrize("name, seed, actions_seed, control_steps", [("clear_area", 7, 3, 1500),
                                                                    ("run_the_bowel", 2007, 2007, 300)])
 def test_the_reported_storms_are_gone(name, seed, actions_seed, control_steps):
