@@ -13,7 +13,7 @@ docs/bench/instances.json (python python/tools/bench_instances.py
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
 python/tools/bench_scale.py --parts tasks --json docs/scale/tasks.json), docs/tasks/rates.json (python
 python/tools/task_rates.py --out docs/tasks/rates.json; docs/tasks/random_stability.json and
-docs/tasks/rates_anatomical.json likewise),
+docs/tasks/rates_anatomical.json and docs/tasks/rates_anatomical_long.json likewise),
 docs/validation/contact_stability.json (python python/tools/contact_stability.py), docs/validation/handling.json
 (python python/tools/validation/organ/handling.py), docs/validation/contacts.json
 (python python/tools/validation/contacts/study.py), docs/validation/tolerance.json

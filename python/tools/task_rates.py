@@ -17,6 +17,11 @@ the scripted policies on the anatomical abdomen into docs/tasks/rates_anatomical
 
     python python/tools/task_rates.py --scene anatomical --policies scripted --out docs/tasks/rates_anatomical.json
 
+and the two clearing tasks there with twice their time limits into docs/tasks/rates_anatomical_long.json:
+
+    python python/tools/task_rates.py --scene anatomical --tasks clear_area retract_reach --policies scripted \
+        --time-limit-factor 2 --out docs/tasks/rates_anatomical_long.json
+
 and the stability check of random actions (a learning agent's first hours: 50 unseen seeds per
 task, 300 control steps each, every recovery counted) into docs/tasks/random_stability.json:
 
