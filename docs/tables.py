@@ -7,7 +7,8 @@ A generated table sits between `<!-- table: NAME -->` and `<!-- end table -->` i
 single figure in a sentence between `<!-- value: FILE KEY FORMAT -->` and `<!-- end value -->`
 (see VALUE below); NAME is a function below, fed by docs/validation/results.json (python python/tools/validate.py),
 docs/bench/results.json (python python/tools/bench_fall.py --json), docs/bench/cavity.json
-(python python/tools/bench_cavity.py --json; docs/bench/cavity_anatomical.json with --scene anatomical),
+(python python/tools/bench_cavity.py --json; docs/bench/cavity_anatomical.json with --scene anatomical;
+docs/bench/cavity_anatomical_trade.json, cited in docs/cavity.md, likewise),
 docs/bench/instances.json (python python/tools/bench_instances.py
 --json docs/bench/instances.json), docs/pixels/bench.json (python
 python/tools/bench_pixels.py --json docs/pixels/bench.json), docs/scale/tasks.json (python
