@@ -748,6 +748,9 @@ class BowelTask(base.Task):
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
         observation = collections.OrderedDict()
         observation["tool_joints"] = physics.tool_joints()
+        # what each actuator was last commanded (rad, m, actuator order): where the tools are going,
+        # which a policy that decides from the observation alone (viscera.tasks.oracle) moves on from
+        observation["tool_command"] = physics.data.ctrl.copy()
         observation["tool_forces"] = physics.tool_forces()
         observation["grasper_holding"] = physics.holding()
         observation["intestine_axis"] = physics.axis_points(self.axis_samples).ravel()

@@ -39,7 +39,15 @@ import numpy as np
 from viscera.numerics import dot, norm, norms
 from viscera.tasks import carry, scene
 from viscera.tasks.base import GRID, shaft_within_reach
-from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Phase, Tools
+from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Tools
+import dataclasses
+
+
+@dataclasses.dataclass
+class Phase:
+    name: str
+    duration: float
+    moves: dict
 from viscera.trajectory import COORDINATES, ToolTrajectory
 
 TOOLS = ("grasper", "retractor")

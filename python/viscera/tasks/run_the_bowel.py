@@ -12,7 +12,8 @@ trocar, in place of the retractor).
 - Observations: tool_joints, tool_forces, grasper_holding (per grasper), intestine_axis, gravity,
   start_mark (its axis point, m (3), then its abscissa, m), intestine_length (m), held_abscissa
   (per grasper: m along the rest axis, -1 when not holding), advance (m: the farthest held point
-  from the mark since the run began).
+  from the mark since the run began), counted_abscissa (per grasper: its hold as the run counts it,
+  m along the rest axis; -1 when it holds nothing or a hold that does not count).
 - Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success
   and a charge on a drop. The potential: before the run begins, 0.1 x the nearest grasper tip's
   nearness to the mark (exp(-distance / 5 cm)); once it has begun, 0.1 + 0.9 x the advance over
@@ -118,7 +119,8 @@ class RunTheBowel(base.BowelTask):
     def task_observations(self, physics: Physics) -> dict:
         return {"start_mark": np.append(self.mark_point(physics), self.mark),
                 "intestine_length": np.array([physics.intestine().rest_length]),
-                "held_abscissa": physics.held_abscissae(), "advance": np.array([self.advance])}
+                "held_abscissa": physics.held_abscissae(), "advance": np.array([self.advance]),
+                "counted_abscissa": np.array([-1.0 if c is None else c for c in self.counted])}
 
     def potential(self, physics: Physics) -> float:
         if self.started:
