@@ -59,7 +59,8 @@ class ClearArea(base.BowelTask):
         return self.measurements(physics).uncovered_fraction >= UNCOVERED and all(self.tools_done(physics))
 
     def task_observations(self, physics: Physics) -> dict:
-        return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy()}
+        return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy(),
+                "held_abscissa": physics.held_abscissae()}
 
     def potential(self, physics: Physics) -> float:
         uncovered = self.measurements(physics).uncovered_fraction

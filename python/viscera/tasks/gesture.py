@@ -2,32 +2,34 @@
 
     python -m viscera play clear_area --seed 0      # one whole episode of it, and whether it succeeded
 
-A closed-loop scripted policy for the clear_area task (dm_control convention:
-``action = policy(time_step)``), built from the observations alone (the axis
-points, the target, its coverage, gravity) and the scene's fixed anatomy (the
-trocars, the mesentery's root line, the shortest mesentery of the tasks' range);
-it plays smooth, velocity-limited tool trajectories (viscera.trajectory), each
-phase lasting as long as its moves need. Each cycle, while less than
-`good_enough` (85 %) of the target is uncovered, it plans one carry with the
-taut-rope prediction of viscera.tasks.carry: of the exposed axis points over the
-target (no other loop on them) and the places around each where it could lay
-them, the pair that leaves the most of the target uncovered, with the moved rope
-laid clear of the target, short carries and no climbing preferred; carries that would
-stretch the bowel to a pinned end or beyond its mesentery are ruled out (the
-tissue pulls such a loop straight back). Then: the open grasper above the point,
-descend, close (the plugin takes hold of the nearest axis point), lift, carry,
-lower, release, and rise to `rise` above the wall before moving on (withdrawing
-along the shaft dragged the laid loop back). When the target is uncovered enough, or nothing covers it, or
-the time is nearly up, the grasper withdraws to its trocar with its jaws open,
-and comes back if less than `resume_below` (80 %) is uncovered. With `press`
-the retractor presses each laid loop down (off for clear_area: it did worse).
-`RetractReachGesture` is the same gesture on retract_reach's working spot, then
-the retraction and the reach.
+The oracle of clear_area (viscera.tasks.oracle: every control step, its phase, aims and action
+from the observation alone): the axis points, the target and its coverage, gravity, the hold,
+the tools' joints and last commands, plus the scene's fixed anatomy (the trocars, the
+mesentery's root line, the shortest mesentery of the tasks' range). Each step:
 
-Why the taut-rope choice: a loop carried away from where its rope comes from lies
-taut across the target and springs back when let go. How often the gesture
-succeeds is measured, not written here: docs/tasks/rates.json
-(python python/tools/task_rates.py).
+- holding a loop, the grasper carries it where the taut-rope prediction (viscera.tasks.carry)
+  leaves most of the target uncovered: `lift` to `carry_height`, `carry` over the drop, `lower`
+  to LAY_HEIGHT, `release`;
+- holding nothing, while less than `good_enough` (85 %) of the target is uncovered (or less than
+  `resume_below`, 80 %, once withdrawn), it goes for the loop to carry: `rise` off the bowel it
+  just laid, `approach` the exposed axis point over the target with the best carry, `descend`,
+  `close`; a jaw shut on nothing opens (`open`);
+- else it `withdraw`s to its trocar with its jaws open (the retractor too), and `rest`s there.
+
+Which loop and where: of the exposed axis points over covered cells (no other loop on them) and
+the drops on a fixed grid over the cavity's floor, within the grasper's reach, the pair with the
+best score: the uncovered fraction the prediction leaves, plus a bonus for laying the moved rope
+clear of the target (up to `clearance_cap`), minus `distance_weight` times the carry's length,
+plus `downhill_weight` times its fall along the table's tilt. Carries that would stretch the
+bowel to a pinned end or beyond its mesentery are ruled out. The choice is not remembered: the
+score of a drop, less the tip's distance to it, stays best while the tip goes to it (and a pick
+likewise, less `approach_weight` times the tip's distance), so the same choice is made again
+every step from what is observed. The prediction reads only the rope's rest length and the
+points it does not move, so it holds while the loop is carried.
+
+Why the taut-rope choice: a loop carried away from where its rope comes from lies taut across
+the target and springs back when let go. How often the gesture succeeds is measured, not written
+here: docs/tasks/rates.json (python python/tools/task_rates.py).
 """
 
 from __future__ import annotations
@@ -37,357 +39,410 @@ import math
 import numpy as np
 
 from viscera.numerics import dot, norm, norms
-from viscera.tasks import carry, scene
+from viscera.tasks import scene
 from viscera.tasks.base import GRID, shaft_within_reach
-from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, LIMITS, Tools
-import dataclasses
-
-
-@dataclasses.dataclass
-class Phase:
-    name: str
-    duration: float
-    moves: dict
-from viscera.trajectory import COORDINATES, ToolTrajectory
+from viscera.tasks.oracle import Decision
+from viscera.tasks.policies import FAR_M, JAW_CLOSED_DEG, JAW_OPEN_DEG, JAW_SHUT_DEG, GraspPolicy
 
 TOOLS = ("grasper", "retractor")
 LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
 TARGET_PATCH_HALF_M = 0.0005  # the target patch's half thickness: its centre is this above the wall
 # m between the axis points a carry is planned on (100 on 3 m): a finer observation is resampled
-# to them, since a plan costs 34 ms on 100 points and 1.8 s on 1000
+# to them
 PLAN_SPACING_M = 0.03
+DROP_SPACING_M = 0.02  # m between the drops of the grid over the cavity's floor
+LAID_MARGIN_M = 0.025  # m: a held loop low outside the target grown by this is being laid
+WITHDRAWN_M = 0.002
+LEAVING_HEIGHT_M = 0.10  # m above the wall: a grasper higher, holding nothing, is leaving or gone    # a depth command at most this: the tool is withdrawn to its trocar
 
 
-def _phase(name: str, duration: float, grasper: ToolTrajectory, retractor: ToolTrajectory) -> Phase:
-    """A phase of both tools' moves (viscera.tasks.policies.Phase)."""
-    return Phase(name, duration, {"grasper": grasper, "retractor": retractor})
+def segment_distances2(cells: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Squared distances (m^2) from `cells` (C, 2) to each segment from `start` to `end` (m, (S, 2)
+    each): (S, C)."""
+    d = end - start
+    length2 = np.maximum((d * d).sum(axis=1), 1e-18)
+    rel = cells[None, :, :] - start[:, None, :]
+    t = np.clip((rel * d[:, None, :]).sum(axis=2) / length2[:, None], 0.0, 1.0)
+    off = rel - t[:, :, None] * d[:, None, :]
+    return (off * off).sum(axis=2)
 
 
-class ClearingGesture:
-    """Policy for viscera.tasks.load("clear_area"): call with a dm_env TimeStep, get an action."""
+class ClearingGesture(GraspPolicy):
+    """Oracle for viscera.tasks.load("clear_area"): `decide(observation)`, or call with a dm_env
+    TimeStep for the action."""
 
-    cycle_duration = 4.4  # s, one pick, lay and rise
+    PHASES = GraspPolicy.PHASES + ("carry", "lower", "release", "withdraw", "rest")
 
-    def __init__(self, env, withdraw_at: float | None = None, carry_height: float = 0.12,
-                 good_enough: float = 0.85, resume_below: float = 0.8, press: bool = False, press_beyond: float = 0.02,
-                 press_height: float = 0.025, rise: float = 0.1, directions: int = 16,
-                 carry_distances: tuple[float, ...] = (0.05, 0.08, 0.11, 0.14), clearance_weight: float = 0.5,
-                 clearance_cap: float = 0.08, distance_weight: float = 0.5, uphill_weight: float = 2.0):
+    def __init__(self, env, carry_height: float = 0.12, good_enough: float = 0.85, resume_below: float = 0.8,
+                 carry_distances: tuple[float, float] = (0.05, 0.14), clearance_weight: float = 0.5,
+                 clearance_cap: float = 0.08, distance_weight: float = 0.5, downhill_weight: float = 1.0,
+                 approach_weight: float = 3.0):
+        super().__init__(env)
         physics = env.physics
-        self.control_timestep = env.control_timestep()
-        # s: then the tools leave, whatever remains (default: 6 s before the episode's time limit)
-        limit = env.time_limit_s  # viscera.tasks.base.Environment's
-        self.withdraw_at = withdraw_at if withdraw_at is not None else (limit - 6.0 if np.isfinite(limit) else 24.0)
         self.good_enough = good_enough  # uncovered fraction at which the grasper leaves
         self.resume_below = resume_below  # ... and below which, withdrawn, it comes back for more
-        # the retractor presses each laid loop down, press_beyond (m) past where the grasper let it
-        # go, its paddle press_height (m) above the wall, so that it does not slide back
-        self.press, self.press_beyond, self.press_height = press, press_beyond, press_height
-        self.rise = rise  # m above the wall the open jaws rise to, straight up, after a release (0: no rise)
-        # where to lay each loop: `directions` around the pick, `carry_distances` (m) from it; the
-        # score's weights: clearance (per its cap, m), carry length (per m), climb (per m x sin tilt)
-        self.directions, self.carry_distances = directions, tuple(carry_distances)
+        self.carry_height = carry_height  # m above the wall while carrying: higher drags the neighbours up
+        self.carry_distances = tuple(carry_distances)  # m: the drops a pick is planned with, from it
         self.clearance_weight, self.clearance_cap = clearance_weight, clearance_cap
-        self.distance_weight, self.uphill_weight = distance_weight, uphill_weight
-        # a carried point stays within the shortest mesentery of its root (anatomy: the root line
-        # is the scene's, m, from and to; the depth the least of the tasks' range)
+        self.distance_weight, self.downhill_weight = distance_weight, downhill_weight
+        self.approach_weight = approach_weight  # per m of the tip's distance to a pick
         self.mesentery_reach = scene.MESENTERY_LENGTH[0]
         self.root_line = np.array(physics.intestine().config["mesentery_root"].split(), dtype=float).reshape(2, 3)
-        # m above the posterior wall while carrying: a loop lifted higher drags its neighbours up
-        # and they slide back
-        self.carry_height = carry_height
-        # m, x y: where loops may be laid, the scene's floor inside its walls (and its colon)
         region = np.array(env.task.scene.lay_region)
-        self.lay_low, self.lay_high = region[:, 0], region[:, 1]
-        self.tools = Tools(env)  # trocars, working points, actuators
-        self.coordinates = self.tools.coordinates
-        self.radius = physics.intestine().radius
-        self.plan_points = int(round(physics.intestine().rest_length / PLAN_SPACING_M))
-        self.target(np.concatenate([physics.target(), [0.0, 0.0, -9.81]]))
-        self._reset()
+        xs = np.arange(region[0, 0], region[0, 1] + 1e-9, DROP_SPACING_M)
+        ys = np.arange(region[1, 0], region[1, 1] + 1e-9, DROP_SPACING_M)
+        grid = np.array([[x, y] for x in xs for y in ys])
+        trocar = self.tools.trocar["grasper"]
+        self.drops = grid[[shaft_within_reach(trocar, np.append(d, LAY_HEIGHT)) for d in grid]]
+        self.target_margin = 0.04  # m: drops lie outside the target grown by this
+        self.plan_points = int(round(self.rest_length / PLAN_SPACING_M))
+        self.cycles = 0  # releases seen (informative: no decision reads it)
+        self._cover_key, self._cover = None, None
 
-    def target(self, observation: np.ndarray) -> None:
-        """The episode's target and gravity, from the observations `target` (centre m, half sizes
-        m) and `gravity` (m/s^2), concatenated."""
-        self.centre, self.half = observation[:2].copy(), observation[3:5].copy()
-        # m: the posterior wall's height under the target (its patch's centre lies its half
-        # thickness, TARGET_PATCH_HALF_M, above the wall; 0 in the box abdomen)
-        self.wall_z = float(observation[2]) - TARGET_PATCH_HALF_M
+    # -- the target
+    def target_cells(self, observation) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The target's centre and half sizes (m, x y), its sampling points (m, (GRID^2, 2),
+        coverage order) and the wall's height under it (m)."""
+        target = np.asarray(observation["target"], dtype=float)
+        centre, half = target[:2], target[3:5]
         u = (np.arange(GRID) + 0.5) / GRID * 2.0 - 1.0
-        x, y = np.meshgrid(self.centre[0] + u * self.half[0], self.centre[1] + u * self.half[1])
-        self.cells = np.stack([x.ravel(), y.ravel()], axis=1)  # the reward's sampling points, coverage order
-        self.scored = np.ones(len(self.cells), dtype=bool)  # the cells a carry is scored on
-        self.gravity = observation[5:8].copy()
+        x, y = np.meshgrid(centre[0] + u * half[0], centre[1] + u * half[1])
+        return centre, half, np.stack([x.ravel(), y.ravel()], axis=1), float(target[2]) - TARGET_PATCH_HALF_M
 
-    def _reset(self) -> None:
-        self.phases: list[Phase] = []
-        self.phase_time = 0.0
-        self.time = 0.0
-        self.command = {t: {c: 0.0 for c in COORDINATES} for t in TOOLS}
-        self.cycles = 0
-        self.done = False
-        self.pressing: np.ndarray | None = None  # where the retractor presses (m, x y)
-        self.observation: dict = {}  # the latest, as __call__ received it
+    def scored(self, observation, cells: np.ndarray) -> np.ndarray:
+        """The cells the gesture clears (all of the target's)."""
+        return np.ones(len(cells), dtype=bool)
 
-    def _move(self, tool: str, goal: dict, duration: float) -> ToolTrajectory:
-        start = dict(self.command[tool])
-        self.command[tool] = dict(goal)
-        return ToolTrajectory([dict(start, time=0.0), dict(goal, time=duration)], LIMITS)
+    def uncovered(self, observation) -> float:
+        coverage = np.asarray(observation["target_coverage"], dtype=float)
+        return 1.0 - float(np.mean(coverage > 0.5))
 
-    def _hold(self, tool: str) -> ToolTrajectory:
-        return ToolTrajectory([dict(self.command[tool], time=0.0)], LIMITS)
+    # -- the plan
+    def plan_axis(self, observation) -> np.ndarray:
+        from viscera.tasks import carry
+        axis = np.asarray(observation["intestine_axis"], dtype=float).reshape(-1, 3)
+        return carry.resampled(axis, self.plan_points) if len(axis) > self.plan_points else axis
 
-    def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
-        """Queue the phases of the next cycle from the axis points (m, (k, 3)) and the target's
-        coverage grid."""
-        if len(axis) > self.plan_points:
-            axis = carry.resampled(axis, self.plan_points)
-        over = self._over_covered_cells(axis, coverage)
-        uncovered = 1.0 - float(np.mean(np.asarray(coverage) > 0.5))
-        if self.time + self.cycle_duration > self.withdraw_at or not over.any() or uncovered >= self.good_enough:
-            self._plan_withdraw()
-            return
-        index, drop_xy, side = self._choose(axis, over)
-        pick = axis[index]
-        above = np.array([pick[0], pick[1], pick[2] + 0.04])
-        grip = np.array([pick[0], pick[1], pick[2] - 0.3 * self.radius])
-        lifted = np.array([pick[0], pick[1], self.carry_height])
-        carried = np.array([drop_xy[0], drop_xy[1], self.carry_height])
-        lowered = np.array([drop_xy[0], drop_xy[1], LAY_HEIGHT])
-        g, r = "grasper", "retractor"
-        hold_r = self._hold(r)
-        self.phases += [
-            _phase("approach", 0.9, self._move(g, self.coordinates(g, above, JAW_OPEN_DEG), 0.8), hold_r),
-            _phase("descend", 0.5, self._move(g, self.coordinates(g, grip, JAW_OPEN_DEG), 0.4), hold_r),
-            _phase("close", 0.3, self._move(g, self.coordinates(g, grip, JAW_CLOSED_DEG), 0.25), hold_r),
-            _phase("lift", 0.6, self._move(g, self.coordinates(g, lifted, JAW_CLOSED_DEG), 0.5), hold_r),
-            _phase("carry", 0.9, self._move(g, self.coordinates(g, carried, JAW_CLOSED_DEG), 0.8), hold_r),
-            _phase("lower", 0.4, self._move(g, self.coordinates(g, lowered, JAW_CLOSED_DEG), 0.3), hold_r),
-        ]
-        if self.press:  # the retractor leaves the last laid loop, comes over this one and presses it down
-            self._press_at(drop_xy + side * self.press_beyond, self.press_height)
-            hold_r = self._hold(r)
-        self.phases.append(
-            _phase("release", 0.3, self._move(g, self.coordinates(g, lowered, JAW_OPEN_DEG), 0.25), hold_r))
-        if self.rise:
-            self.phases.append(_phase("rise", 0.5, self._move(
-                g, self.coordinates(g, np.append(drop_xy, self.rise), JAW_OPEN_DEG), 0.45), self._hold(r)))
-        self.cycles += 1
+    def roots(self, count: int) -> np.ndarray:
+        from viscera.tasks import carry
+        return carry.mesentery_roots(self.root_line, count)
 
-    def _press_at(self, point: np.ndarray, height: float, roll: float = 0.0) -> None:
-        """Queue the retractor's move, the grasper holding: up off what it pressed, over `point`
-        (m, x y), down to `height` (m above the wall), its paddle turned `roll` (deg) about the shaft."""
-        g, r = "grasper", "retractor"
-        hold_g = self._hold(g)
-        if self.pressing is not None:
-            self.phases.append(_phase("retractor up", 0.4, hold_g, self._move(
-                r, self.coordinates(r, np.append(self.pressing, 0.07), roll=self.command[r]["roll"]), 0.35)))
-        self.phases += [
-            _phase("retractor over", 0.6, hold_g, self._move(r, self.coordinates(r, np.append(point, 0.07), roll=roll),
-                                                            0.55)),
-            _phase("retractor press", 0.4, hold_g, self._move(r, self.coordinates(r, np.append(point, height),
-                                                                                 roll=roll), 0.35))]
-        self.pressing = np.asarray(point, dtype=float)
+    def carries(self, axis: np.ndarray, index: int, drops: np.ndarray, cells: np.ndarray, centre, half):
+        """For axis point `index` carried to each of `drops` (m, (D, 2)) by the taut-rope
+        prediction: which are feasible, and each one's uncovered fraction of `cells` plus the
+        clearance bonus. The rope's length is its rest length between the axis points (so a
+        carried stretch reads as much rope as before it was carried)."""
+        n = len(axis)
+        spacing = self.rest_length / (n - 1)
+        roots = self.roots(n)
+        r2 = self.radius ** 2
+        feasible = np.ones(len(drops), dtype=bool)
+        anchors = []  # per side: anchor index per drop (-1: no rope on that side)
+        moved_points = np.repeat(axis[None, :, :2], len(drops), axis=0)
+        moved = np.zeros((len(drops), n), dtype=bool)
+        moved[:, index] = True
+        moved_points[:, index] = drops
+        for step in (-1, 1):
+            chain = np.arange(index + step, -1 if step < 0 else n, step)
+            if not len(chain):
+                anchors.append(np.full(len(drops), -1))
+                continue
+            lengths = spacing * np.arange(1, len(chain) + 1)
+            distance = norms(drops[:, None, :] - axis[chain][None, :, :2])
+            hit = lengths[None, :] >= distance
+            found = hit.any(axis=1)
+            feasible &= found
+            first = np.argmax(hit, axis=1)
+            anchor = chain[first]
+            anchors.append(np.where(found, anchor, -1))
+            share = lengths[None, :] / lengths[first][:, None]  # along each drop's leg
+            inside = np.arange(len(chain))[None, :] < first[:, None]
+            legs = drops[:, None, :] + share[:, :, None] * (axis[anchor][:, None, :2] - drops[:, None, :])
+            moved_points[:, chain] = np.where(inside[:, :, None], legs, moved_points[:, chain])
+            moved[:, chain] |= inside
+        before = norms(axis - roots)
+        after = norms(np.concatenate([moved_points, np.broadcast_to(axis[None, :, 2:], (len(drops), n, 1))], axis=2)
+                      - roots[None])
+        feasible &= ~np.any(moved & (after > np.maximum(before, self.mesentery_reach)[None] + 1e-9), axis=1)
+        feasible &= moved.sum(axis=1) > 0
+        # coverage after: the segments left where they lie, and the two straight legs from the drop
+        prefix, suffix = self.segment_cover(axis, cells)
+        left, right = anchors
+        covered = np.zeros((len(drops), len(cells)), dtype=bool)
+        has_left, has_right = left >= 0, right >= 0
+        covered |= np.where(has_left[:, None], prefix[np.maximum(left, 0)], prefix[index])
+        covered |= np.where(has_right[:, None], suffix[np.where(has_right, right, n - 1)], suffix[n - 1])
+        for anchor, has in ((left, has_left), (right, has_right)):
+            ends = axis[np.maximum(anchor, 0), :2]
+            covered |= has[:, None] & (segment_distances2(cells, drops, ends) <= r2)
+        uncovered = 1.0 - covered.mean(axis=1)
+        outside = np.maximum(np.abs(moved_points - centre) - half, 0.0)
+        clearance = np.where(moved, norms(outside), np.inf).min(axis=2 - 1)
+        bonus = self.clearance_weight * np.minimum(clearance, self.clearance_cap) / self.clearance_cap
+        return feasible, uncovered + bonus
 
-    def _choose(self, axis: np.ndarray, over: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
-        """The axis point to pick (index), where to lay it (m, xy) and the direction it goes (unit,
-        xy): of the exposed points over the covered cells (no other loop on them) and the drops
-        around each (`directions` x `carry_distances`, inside the cavity, within the grasper's
-        reach), the best by the taut-rope prediction (viscera.tasks.carry): the uncovered
-        fraction it leaves, plus a bonus for laying the moved rope clear of the target (up to
-        `clearance_cap`: a loop laid beside the hole it left rolls back in), minus the carry's
-        length and its climb against the table's tilt."""
-        candidates = [int(i) for i in np.flatnonzero(over) if self._exposed(axis, i)] or \
-            [int(np.flatnonzero(over)[np.argmax(axis[over, 2])])]
-        downhill = np.asarray(self.gravity[:2]) / norm(self.gravity)  # sin(tilt) along the slope
-        roots = carry.mesentery_roots(self.root_line, len(axis))
-        angles = np.arange(self.directions) * 2.0 * np.pi / self.directions
-        directions = np.array([[math.cos(angle), math.sin(angle)] for angle in angles.tolist()])
+    def segment_cover(self, axis: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which `cells` the tube's segments 0..k-1 cover (prefix[k]) and k..n-2 (suffix[k]); kept
+        for the last axis and cells asked (a cache: the same numbers for the same input)."""
+        key = (axis.tobytes(), cells.tobytes())
+        if self._cover_key != key:
+            seg = segment_distances2(cells, axis[:-1, :2], axis[1:, :2]) <= self.radius ** 2  # (n - 1, C)
+            none = np.zeros((1, len(cells)), dtype=bool)
+            self._cover = (np.concatenate([none, np.logical_or.accumulate(seg, axis=0)]),
+                           np.concatenate([np.logical_or.accumulate(seg[::-1], axis=0)[::-1], none]))
+            self._cover_key = key
+        return self._cover
+
+    def outside(self, points: np.ndarray, centre, half) -> np.ndarray:
+        """Which `points` (m, (k, 2)) lie outside the target grown by `target_margin`."""
+        return np.any(np.abs(points - centre) > half + self.target_margin, axis=1)
+
+    def downhill(self, observation) -> np.ndarray:
+        """sin(tilt) along the slope, x y: gravity's horizontal part over its size."""
+        gravity = np.asarray(observation["gravity"], dtype=float)
+        return gravity[:2] / norm(gravity)
+
+    def drop_for(self, observation, axis, index: int, tip: np.ndarray, cells, centre, half):
+        """Where to lay axis point `index`, held at `tip` (m): the best drop by its score less
+        `distance_weight` times the tip's distance to it (None: nothing feasible)."""
+        near = (norms(self.drops - tip[:2]) <= self.carry_distances[1] + 0.02) & self.outside(self.drops, centre, half)
+        drops = self.drops[near]
+        if not len(drops):
+            return None
+        feasible, score = self.carries(axis, index, drops, cells, centre, half)
+        score = score - self.distance_weight * norms(drops - tip[:2]) \
+            + self.downhill_weight * dot(drops, self.downhill(observation))
+        if not feasible.any():
+            return None
+        return drops[int(np.argmax(np.where(feasible, score, -np.inf)))]
+
+    def exposed_over(self, axis: np.ndarray, cells: np.ndarray, coverage: np.ndarray) -> np.ndarray:
+        """Indices of the axis points over a covered cell (as the reward sees it) on which no
+        other stretch of the bowel lies."""
+        covered = cells[coverage > 0.5]
+        if not len(covered):
+            return np.zeros(0, dtype=int)
+        d2 = ((axis[:, None, :2] - covered[None, :, :]) ** 2).sum(axis=2)
+        over = np.flatnonzero(d2.min(axis=1) <= (1.5 * self.radius) ** 2)
+        out = []
+        for i in over:
+            others = np.abs(np.arange(len(axis)) - i) > 2
+            near = norms(axis[:, :2] - axis[i, :2]) < 1.5 * self.radius
+            if not np.any(others & near & (axis[:, 2] > axis[i, 2] + self.radius)):
+                out.append(int(i))
+        return np.array(out if out else [int(over[np.argmax(axis[over, 2])])] if len(over) else [], dtype=int)
+
+    def pick(self, observation, axis, tip, cells, centre, half, coverage):
+        """The axis point to take (index) and the tip's goal over it: the best pick by its best
+        carry less `approach_weight` times the tip's distance to it; None when nothing to take."""
+        candidates = self.exposed_over(axis, cells, coverage)
+        if not len(candidates):
+            return None
+        # going down on one: keep it (the nearest under the tip)
+        across = norms(axis[candidates, :2] - tip[:2])
+        under = (across <= 0.015) & (tip[2] <= axis[candidates, 2] + 0.05)
+        if under.any():
+            return int(candidates[np.flatnonzero(under)[np.argmin(across[under])]])
         best, choice = -np.inf, None
+        downhill = self.downhill(observation)
         for index in candidates:
-            pick = axis[index, :2]
-            for direction in directions:
-                for distance in self.carry_distances:
-                    drop = np.clip(pick + direction * distance, self.lay_low, self.lay_high)
-                    if not shaft_within_reach(self.tools.trocar["grasper"], np.append(drop, LAY_HEIGHT)):
-                        continue
-                    points = carry.carried(axis, index, drop, roots, self.mesentery_reach)
-                    if points is None:
-                        continue
-                    moved = np.any(points != axis[:, :2], axis=1)
-                    if not moved.any():  # the cavity's bounds left it where it was
-                        continue
-                    score = (1.0 - float(np.mean(carry.covered(points, self.cells[self.scored], self.radius)))
-                             + self.clearance_weight * min(carry.clearance(points[moved], self.centre, self.half),
-                                                           self.clearance_cap) / self.clearance_cap
-                             - self.distance_weight * norm(drop - pick)
-                             - self.uphill_weight * max(0.0, -dot(drop - pick, downhill)))
-                    if score > best:
-                        best, choice = score, (index, drop, (drop - pick) / max(norm(drop - pick), 1e-9))
-        if choice is None:  # nothing feasible: the top loop, through the target's nearest edge
-            index = candidates[int(np.argmax(axis[candidates, 2]))]
-            side = self._exit_side(axis, index)
-            drop = axis[index, :2] + side * (self._exit_distance(axis[index, :2], side) + self.clearance_cap)
-            return index, np.clip(drop, self.lay_low, self.lay_high), side
+            at = axis[index, :2]
+            distance = norms(self.drops - at)
+            ring = (distance >= self.carry_distances[0]) & (distance <= self.carry_distances[1]) \
+                & self.outside(self.drops, centre, half)
+            drops = self.drops[ring]
+            if not len(drops):
+                continue
+            feasible, score = self.carries(axis, int(index), drops, cells, centre, half)
+            if not feasible.any():
+                continue
+            score = score - self.distance_weight * distance[ring] + self.downhill_weight * dot(drops - at, downhill)
+            value = float(np.max(np.where(feasible, score, -np.inf))) - self.approach_weight * norm(tip[:2] - at)
+            if value > best:
+                best, choice = value, int(index)
+        if choice is None and len(candidates):  # nothing feasible: the top one, all the same
+            choice = int(candidates[int(np.argmax(axis[candidates, 2]))])
         return choice
 
-    def _exposed(self, axis: np.ndarray, index: int) -> bool:
-        """No other stretch of the bowel lies on axis point `index` (its jaws would take that one)."""
-        others = np.abs(np.arange(len(axis)) - index) > 2
-        near = norms(axis[:, :2] - axis[index, :2]) < 1.5 * self.radius
-        return not np.any(others & near & (axis[:, 2] > axis[index, 2] + self.radius))
+    # -- the decision
+    def withdrawn(self, command: dict) -> bool:
+        return command["depth"] <= WITHDRAWN_M
 
-    def _exit_side(self, axis: np.ndarray, index: int) -> np.ndarray:
-        """The direction (unit, xy) out of the target through its nearest edge from axis point
-        `index`, never uphill (the fallback when no carry is feasible)."""
-        offset = axis[index, :2] - self.centre
-        margins = np.concatenate([self.half - offset, self.half + offset])  # to the +x, +y, -x, -y edges
-        normals = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
-        uphill = dot(normals, self.gravity[:2]) < -0.05 * norm(self.gravity)
-        if uphill.all():
-            uphill[:] = False
-        return normals[np.argmin(np.where(uphill, np.inf, margins))]
+    def done(self, observation, tip: np.ndarray, wall_z: float, over: bool) -> bool:
+        """Whether the grasper leaves (or stays away): nothing to take, or `good_enough` of the
+        target uncovered, or `resume_below` with the grasper high (leaving, or gone)."""
+        uncovered = self.uncovered(observation)
+        return not over or uncovered >= self.good_enough or (
+            uncovered >= self.resume_below and tip[2] >= wall_z + LEAVING_HEIGHT_M)
 
-    def _exit_distance(self, point: np.ndarray, direction: np.ndarray) -> float:
-        """Distance (m) from `point` along `direction` (unit) to the target rectangle's edge."""
-        bounds = [(self.centre[a] + np.sign(direction[a]) * self.half[a] - point[a]) / direction[a]
-                  for a in range(2) if abs(direction[a]) > 1e-9]
-        return max(0.0, min(bounds))
+    def grasper(self, observation) -> tuple[str, dict, np.ndarray]:
+        """The grasper's phase, goal (deg, m) and aim (m)."""
+        g = "grasper"
+        command, now = self.commands(observation)[g], self.joints(observation)[g]
+        tip = self.tip(g, now)
+        centre, half, cells, wall_z = self.target_cells(observation)
+        cells = cells[self.scored(observation, cells)]
+        coverage = np.asarray(observation["target_coverage"], dtype=float)[self.scored(observation, self.target_cells(observation)[2])]
+        axis = self.plan_axis(observation)
+        holding = float(np.asarray(observation["grasper_holding"])[0]) > 0.5
+        if holding:
+            # out of the target (grown by LAID_MARGIN_M: picks lie within it) and low: a loop being laid
+            outside = bool(np.any(np.abs(tip[:2] - centre) > half + LAID_MARGIN_M))
+            laid = outside and tip[2] <= wall_z + LAY_HEIGHT + 0.01
+            if now["jaw"] > JAW_SHUT_DEG and command["jaw"] > JAW_CLOSED_DEG + 0.5 and not laid:
+                return "close", dict(command, jaw=JAW_CLOSED_DEG), tip
+            held = float(np.asarray(observation["held_abscissa"])[0])
+            index = int(round(min(1.0, max(0.0, held / self.rest_length)) * (len(axis) - 1)))
+            drop = self.drop_for(observation, axis, index, tip, cells, centre, half)
+            if drop is None:  # nothing feasible: straight out of the target, away from its centre
+                away = tip[:2] - centre
+                drop = tip[:2] + 0.08 * away / max(norm(away), 1e-9)
+            lowered = np.array([drop[0], drop[1], wall_z + LAY_HEIGHT])
+            across = norm(tip[:2] - drop)
+            if laid and command["jaw"] > JAW_CLOSED_DEG + 0.5:  # letting go
+                return "release", dict(command, jaw=JAW_OPEN_DEG), lowered
+            if across > 0.015:
+                if tip[2] < wall_z + self.carry_height - 0.04 and not outside:  # up first, off the other loops
+                    aim = np.array([tip[0], tip[1], wall_z + self.carry_height])
+                    return "lift", self.at(g, aim, JAW_CLOSED_DEG), aim
+                # at the carry height, or on at the tip's height once out of the target and lower
+                height = min(tip[2], wall_z + self.carry_height) if outside else wall_z + self.carry_height
+                aim = np.array([drop[0], drop[1], height])
+                return "carry", self.at(g, aim, JAW_CLOSED_DEG), aim
+            goal = self.at(g, lowered, JAW_CLOSED_DEG)
+            if not laid:
+                return "lower", goal, lowered
+            return "release", dict(goal, jaw=JAW_OPEN_DEG), lowered
+        if command["jaw"] < JAW_OPEN_DEG - 0.5 and not (now["jaw"] > JAW_SHUT_DEG):
+            pass  # shut on nothing: grasp() opens it
+        over = self.exposed_over(axis, cells, coverage)
+        if self.done(observation, tip, wall_z, bool(len(over))) and command["jaw"] >= JAW_OPEN_DEG - 0.5:
+            goal = dict(command, depth=0.0, jaw=JAW_OPEN_DEG)
+            return ("rest" if self.withdrawn(command) else "withdraw"), goal, self.tip(g, goal)
+        if self.done(observation, tip, wall_z, bool(len(over))):
+            return "open", dict(command, jaw=JAW_OPEN_DEG), tip
+        index = self.pick(observation, axis, tip, cells, centre, half, coverage)
+        return self.grasp(observation, g, axis[index])
 
-    def _plan_withdraw(self) -> None:
-        """The grasper withdraws to its trocar, jaws open; the retractor keeps pressing the laid
-        loops (it is clear of the target), or withdraws too when the time is up."""
-        g, r = "grasper", "retractor"
-        up = dict(self.command[g], depth=0.0, jaw=JAW_OPEN_DEG)  # open: a success leaves the jaws open
-        keep = self.press and self.pressing is not None and self.time + self.cycle_duration <= self.withdraw_at
-        retractor = self._hold(r) if keep else self._move(r, dict(self.command[r], depth=0.0), 1.2)
-        self.phases.append(_phase("withdraw", 1.5, self._move(g, up, 1.2), retractor))
-        self.done = True
+    def retractor(self, observation, grasper_phase: str) -> tuple[dict | None, np.ndarray | None]:
+        """The retractor's goal and aim: it withdraws with the grasper, else holds."""
+        if grasper_phase in ("withdraw", "rest"):
+            command = self.commands(observation)["retractor"]
+            goal = dict(command, depth=0.0)
+            return goal, self.tip("retractor", goal)
+        return None, None
 
-    def _over_covered_cells(self, points: np.ndarray, coverage: np.ndarray) -> np.ndarray:
-        """Axis points whose tube lies over a covered cell of the target grid (as the reward sees it)."""
-        cells = self.cells[np.asarray(coverage) > 0.5]
-        if not len(cells):
-            return np.zeros(len(points), dtype=bool)
-        squared = ((points[:, None, :2] - cells[None, :, :]) ** 2).sum(axis=-1)
-        return squared.min(axis=1) <= (1.5 * self.radius) ** 2
-
-    def __call__(self, time_step) -> np.ndarray:
-        if time_step.first():
-            self._reset()
-            self.command.update(self.tools.commands(time_step.observation))  # from where the tools start
-            self.target(np.concatenate([time_step.observation["target"], time_step.observation["gravity"]]))
-        axis = np.asarray(time_step.observation["intestine_axis"]).reshape(-1, 3)
-        self.observation = time_step.observation
-        while not self.phases or self.phase_time >= self.phases[0].duration:
-            if self.phases:
-                self.phase_time -= self.phases.pop(0).duration
-            if not self.phases:
-                coverage = time_step.observation["target_coverage"]
-                if self.done and (self._stay(time_step.observation)
-                                  or self.time + self.cycle_duration > self.withdraw_at):
-                    # rest withdrawn, looking again every half second
-                    self.phases.append(_phase("rest", 0.5, self._hold("grasper"), self._hold("retractor")))
-                else:  # loops came back over the target: another cycle
-                    self.done = False
-                    self._plan(axis, coverage)
-            # a move the velocity limits stretched finishes before the next phase starts from its goal
-            first = self.phases[0]
-            first.duration = max(first.duration, first.moves["grasper"].duration, first.moves["retractor"].duration)
-        moves = self.phases[0].moves
-        action = self.tools.action({"grasper": moves["grasper"](self.phase_time),
-                                    "retractor": moves["retractor"](self.phase_time)})
-        self.phase_time += self.control_timestep
-        self.time += self.control_timestep
-        return action
-
-    def _stay(self, observation) -> bool:
-        """Withdrawn, whether to stay so: enough of the target is still uncovered."""
-        return 1.0 - float(np.mean(np.asarray(observation["target_coverage"]) > 0.5)) >= self.resume_below
-
-    @property
-    def phase(self) -> str:
-        return self.phases[0].name if self.phases else "-"
+    def decide(self, observation) -> Decision:
+        phase, goal, aim = self.grasper(observation)
+        goals, aims = {"grasper": goal}, {"grasper": aim}
+        r_goal, r_aim = self.retractor(observation, phase)
+        if r_goal is not None:
+            goals["retractor"], aims["retractor"] = r_goal, r_aim
+        if phase == "release" and (self.last is None or self.last.phase != "release"):
+            self.cycles += 1
+        return self.act(observation, goals, phase, "grasper", aims)
 
 
 class RetractReachGesture(ClearingGesture):
-    """Policy for retract_reach: the clearing gesture on the working spot (the target's sampling
-    points within `spot` m of its centre: by default the four around it), each loop over it
-    carried where the taut-rope prediction leaves the spot clear and laid, the retractor pressing
-    the laid loop down; once the spot is clear, the retractor (unless it presses already) holds
-    down the loop nearest the centre outside the spot, and the grasper comes down on the
-    target's centre, jaws open (closing jaws would take hold of a loop on the way), and stays
-    while the centre is uncovered, the retractor presses and the grasper pushes on nothing
-    (`target_coverage`, `tool_forces`); else it clears the spot again, and if the grasper pushed
-    on a loop, the retractor first holds down the loop nearest its shaft (reaching again the
-    same way pushed on it again). Where the spot is clear from the start, the retractor holds
-    the nearest loop at once: waiting for it to press something, the reach never came."""
+    """Oracle for retract_reach: the clearing gesture on the working spot (the target's sampling
+    points within `spot` m of its centre); the retractor holds down the loop nearest the target's
+    centre outside the spot (or, while the grasper pushes on a loop at the centre, the loop
+    nearest the grasper's shaft), its paddle along the bowel, and keeps pressing what it presses;
+    once the spot is clear, the grasper comes down on the target's centre with its jaws open
+    (`reach over`, `reach`) and stays while the centre is uncovered; a grasper pushing harder
+    than `push_force` on a loop rises and comes down again once the retractor holds that loop."""
+
+    PHASES = ClearingGesture.PHASES + ("reach over", "reach")
 
     def __init__(self, env, spot: float = 0.004, centre_radius: float = 0.004, press_force: float = 0.05,
-                 push_force: float = 0.5, reach_height: float = 0.002, retract_gap: float = 0.015, **kwargs):
+                 push_force: float = 0.5, reach_height: float = 0.002, retract_gap: float = 0.015,
+                 press_height_over: float = 0.0, **kwargs):
         self.spot = spot  # m
         self.centre_radius = centre_radius  # m: the coverage cells that make the target's centre
         self.press_force = press_force  # N: the retractor presses when its sensor reads this
-        self.push_force = push_force  # N: the grasper pushes its way through loops above this
+        self.push_force = push_force  # N: the grasper pushes on a loop above this
         self.reach_height = reach_height  # m: the tip's goal above the wall at the target's centre
         self.retract_gap = retract_gap  # m beyond the spot where the retractor holds the nearest loop
-        kwargs = dict(dict(good_enough=1.0, resume_below=0.0, press=True, carry_height=0.07), **kwargs)
+        self.press_height_over = press_height_over  # m: the paddle this far above the held loop's top
+        kwargs = dict(dict(good_enough=1.0, resume_below=1.0, carry_height=0.07), **kwargs)
         super().__init__(env, **kwargs)
 
-    def target(self, observation: np.ndarray) -> None:
-        super().target(observation)
-        distance = norms(self.cells - self.centre)
-        self.in_spot = distance <= self.spot
-        self.at_centre = distance <= self.centre_radius
-        self.scored = self.in_spot
-        self.half = np.array([self.spot, self.spot])  # loops leave the spot, not the whole target
+    def scored(self, observation, cells: np.ndarray) -> np.ndarray:
+        target = np.asarray(observation["target"], dtype=float)
+        return norms(cells - target[:2]) <= self.spot
 
-    def _plan(self, axis: np.ndarray, coverage: np.ndarray) -> None:
-        super()._plan(axis, np.where(self.in_spot, coverage, 0.0))
+    def spot_clear(self, observation) -> bool:
+        _, _, cells, _ = self.target_cells(observation)
+        coverage = np.asarray(observation["target_coverage"], dtype=float)
+        return not np.any(coverage[self.scored(observation, cells)] > 0.5)
 
-    def _retract(self, axis: np.ndarray, path: bool = False) -> None:
-        """The retractor presses down the loop nearest the target's centre outside the spot (the
-        one that would roll onto it), or with `path` the one nearest the grasper's shaft as it
-        reaches the centre (the one it pushed on), on its top, its paddle along the bowel."""
-        distance = norms(axis[:, :2] - self.centre)
+    def grasper(self, observation) -> tuple[str, dict, np.ndarray]:
+        g = "grasper"
+        command, now = self.commands(observation)[g], self.joints(observation)[g]
+        holding = float(np.asarray(observation["grasper_holding"])[0]) > 0.5
+        if holding or not self.spot_clear(observation) or command["jaw"] < JAW_OPEN_DEG - 0.5:
+            phase, goal, aim = super().grasper(observation)
+            return phase, goal, aim
+        tip = self.tip(g, now)
+        centre, _, _, wall_z = self.target_cells(observation)
+        reach = np.append(centre, wall_z + self.reach_height)
+        forces = np.asarray(observation["tool_forces"], dtype=float)
+        pushing = norm(forces[0:3]) > self.push_force
+        if pushing and not self.pressing(observation):  # wait up for the retractor to hold that loop
+            aim = np.array([tip[0], tip[1], wall_z + 0.05])
+            return "rise", self.at(g, aim, JAW_OPEN_DEG), aim
+        if norm(tip[:2] - centre) > 0.01 and tip[2] < wall_z + 0.04:
+            aim = np.array([tip[0], tip[1], wall_z + 0.05])
+            return "rise", self.at(g, aim, JAW_OPEN_DEG), aim
+        if norm(tip[:2] - centre) > 0.01:
+            aim = reach + np.array([0.0, 0.0, 0.05])
+            return "reach over", self.at(g, aim, JAW_OPEN_DEG), aim
+        return "reach", self.at(g, reach, JAW_OPEN_DEG), reach
+
+    def pressing(self, observation) -> bool:
+        forces = np.asarray(observation["tool_forces"], dtype=float)
+        return norm(forces[6:9]) >= self.press_force
+
+    def retractor(self, observation, grasper_phase: str) -> tuple[dict | None, np.ndarray | None]:
+        """The retractor holds down the loop nearest the target's centre outside the spot (or,
+        while the grasper pushes at the centre, the one nearest its shaft), on its top, its paddle
+        along the bowel; pressing, it stays."""
+        r = "retractor"
+        if self.pressing(observation):
+            return None, None
+        axis = np.asarray(observation["intestine_axis"], dtype=float).reshape(-1, 3)
+        centre, _, _, wall_z = self.target_cells(observation)
+        distance = norms(axis[:, :2] - centre)
         outside = np.flatnonzero(distance > self.spot + self.retract_gap)
         if not len(outside):
-            return
+            return None, None
         nearness = distance
-        if path:  # nearest the grasper's shaft, its lowest 6 cm at the centre
-            tip = np.append(self.centre, self.wall_z + self.reach_height)
+        forces = np.asarray(observation["tool_forces"], dtype=float)
+        if norm(forces[0:3]) > self.push_force and grasper_phase in ("reach", "rise"):
+            tip = np.append(centre, wall_z + self.reach_height)
             shaft = self.tools.trocar["grasper"] - tip
-            shaft /= norm(shaft)
+            shaft = shaft / norm(shaft)
             along = np.clip(dot(axis - tip, shaft), 0.0, 0.06)
             nearness = norms(axis - (tip + along[:, None] * shaft))
         index = int(outside[np.argmin(nearness[outside])])
         tangent = axis[min(index + 1, len(axis) - 1), :2] - axis[max(index - 1, 0), :2]
         roll = math.degrees(math.atan2(float(tangent[1]), float(tangent[0])))
         roll = (roll + 90.0) % 180.0 - 90.0  # the paddle is symmetric: the shorter turn
-        self._press_at(axis[index, :2], axis[index, 2] + self.radius, roll)
+        command = self.commands(observation)[r]
+        tip = self.tip(r, self.joints(observation)[r])
+        point = axis[index]
+        press = np.array([point[0], point[1], point[2] + self.radius + self.press_height_over])
+        if norm(tip[:2] - point[:2]) > 0.015:  # over it first, from above
+            over = np.array([point[0], point[1], max(press[2] + 0.03, tip[2])])
+            return self.at(r, over, 0.0, roll), over
+        del command
+        return self.at(r, press, 0.0, roll), press
 
-    def _stay(self, observation) -> bool:
-        """At the target's centre, stay while the spot there is uncovered and the retractor
-        presses; else clear it again."""
-        coverage = np.asarray(observation["target_coverage"])
-        forces = np.asarray(observation["tool_forces"])  # grasper then retractor, force then torque
-        return (not (coverage[self.at_centre] > 0.5).any() and norm(forces[6:9]) >= self.press_force
-                and norm(forces[0:3]) <= self.push_force)
-
-    def _plan_withdraw(self) -> None:
-        g = "grasper"
-        centre = np.append(self.centre, self.wall_z + self.reach_height)
-        forces = np.asarray(self.observation["tool_forces"])
-        axis = np.asarray(self.observation["intestine_axis"]).reshape(-1, 3)
-        if norm(forces[0:3]) > self.push_force:  # it pushed on a loop by its shaft: hold that one
-            self._retract(axis, path=True)
-        elif norm(forces[6:9]) < self.press_force:
-            self._retract(axis)
-        self.phases += [
-            _phase("rise", 0.5, self._move(g, dict(self.command[g], depth=max(0.0, self.command[g]["depth"] - 0.04),
-                                                  jaw=JAW_OPEN_DEG), 0.45), self._hold("retractor")),
-            _phase("reach over", 0.8, self._move(g, self.coordinates(g, centre + (0, 0, 0.05), JAW_OPEN_DEG), 0.7),
-                  self._hold("retractor")),
-            _phase("reach", 0.8, self._move(g, self.coordinates(g, centre, JAW_OPEN_DEG), 0.7),
-                  self._hold("retractor"))]
-        self.done = True
+    def decide(self, observation) -> Decision:
+        phase, goal, aim = self.grasper(observation)
+        goals, aims = {"grasper": goal}, {"grasper": aim}
+        r_goal, r_aim = self.retractor(observation, phase)
+        if r_goal is not None:
+            goals["retractor"], aims["retractor"] = r_goal, r_aim
+        lead = "grasper"
+        return self.act(observation, goals, phase, lead, aims)

@@ -16,11 +16,10 @@ through a cycle (which loop to carry where, which hand grasps next) is made by a
 reproduces: a score whose best choice stays best as the tool moves towards it, or a test on
 what is observed (a hold, the jaw, the tip's place).
 
-The tools move as a person's hand does towards a goal: each step, every coordinate of a tool
-goes a share of the way left, together (a straight line in tool coordinates), at most the
-velocity limits LIMITS (policies.LIMITS) and slowing within SETTLE_S of the goal; the command
-is the last command plus that step, so it depends on the state only. A jaw opens and closes at
-its own limit.
+The tools move as a person's hand does towards a goal: each step, a tool's working point goes
+a share of the way left along the straight line from where it was last sent to where it is
+going, at most TIP_SPEED and slowing within SETTLE_S of the goal; the command is the last
+command plus that step, so it depends on the state only. Roll and jaw turn at their own limits.
 
 `Decision.vector()` packs a decision into fixed-size numbers for datasets (the phase's index in
 the oracle's PHASES, the lead tool's index, each tool's aim, NaN where it has none).
@@ -39,6 +38,7 @@ from viscera.trajectory import COORDINATES
 JAW_OPEN_DEG = 35.0
 JAW_CLOSED_DEG = 0.0
 LIMITS = {"pitch": 60.0, "yaw": 60.0, "depth": 0.15, "roll": 90.0, "jaw": 200.0}  # per second (deg, m)
+TIP_SPEED = 0.12  # m/s, a working point's top speed (about the velocity limits at the tools' reach)
 SETTLE_S = 0.12  # s: a move's last stretch is an exponential approach with this time constant
 ARRIVED_M = 0.004  # m: a working point this close to its aim has arrived
 
@@ -171,16 +171,21 @@ class Oracle:
         return self.within_range(tool, dict(command, depth=reach - self.tools.tip_offset[tool]))
 
     # -- acting
-    def step_towards(self, command: dict, goal: dict) -> dict:
-        """The next command from `command` towards `goal` (both deg, m): a share of the way, the
-        same for every coordinate but the jaw, at most LIMITS and slowing near the goal."""
+    def step_towards(self, tool: str, command: dict, goal: dict) -> dict:
+        """The next command of `tool` from `command` towards `goal` (both deg, m): its working
+        point a share of the way along the straight line between theirs, at most TIP_SPEED and
+        slowing within SETTLE_S of the goal; the roll and the jaw at their own limits."""
         dt = self.control_timestep
-        moving = [c for c in COORDINATES if c != "jaw"]
-        need = max(abs(goal[c] - command[c]) / LIMITS[c] for c in moving)  # s at full speed
-        share = min(1.0, dt / max(need, SETTLE_S))
-        out = {c: command[c] + share * (goal[c] - command[c]) for c in moving}
-        jaw_step = LIMITS["jaw"] * dt
-        out["jaw"] = command["jaw"] + min(jaw_step, max(-jaw_step, goal["jaw"] - command["jaw"]))
+        start, end = self.tip(tool, command), self.tip(tool, goal)
+        distance = norm(end - start)
+        share = min(1.0, dt / max(distance / TIP_SPEED, SETTLE_S))
+        if distance <= 1e-9 or norm(start - self.tools.trocar[tool]) <= 1e-6:
+            out = dict(command, pitch=goal["pitch"], yaw=goal["yaw"], depth=goal["depth"])
+        else:
+            out = self.within_range(tool, self.tools.coordinates(tool, start + share * (end - start)))
+        for c in ("roll", "jaw"):
+            limit = LIMITS[c] * dt
+            out[c] = command[c] + min(limit, max(-limit, goal[c] - command[c]))
         return out
 
     def act(self, observation, goals: dict, phase: str, lead: str, aims: dict) -> Decision:
@@ -189,7 +194,7 @@ class Oracle:
         commands = self.commands(observation)
         values = {}
         for tool in self.names:
-            nxt = self.step_towards(commands[tool], goals[tool]) if tool in goals else commands[tool]
+            nxt = self.step_towards(tool, commands[tool], goals[tool]) if tool in goals else commands[tool]
             values[tool] = np.array([nxt[c] for c in COORDINATES])
         assert phase in self.PHASES, phase
         return Decision(self.tools.action(values), phase, lead,

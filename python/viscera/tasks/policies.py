@@ -26,8 +26,7 @@ NEAR_M = 0.01           # the tip this close to the point horizontally is over i
 LOW_M = 0.02            # a tip lower than this above the point, and farther than FAR_M, rises first
 FAR_M = 0.025
 JAW_SHUT_DEG = 1.0      # a jaw at or under this has shut (on nothing, if it holds nothing)
-BLOCKED_WITHIN_M = 0.015  # the jaws this close to where they close, and held back ...
-BLOCKED_LAG_M = 0.004     # ... this far behind their command, are stopped by the bowel: they close there
+SENT_M = 0.005          # a command whose working point is this close to the goal's has been sent there
 COMMAND_AT_DEG = 0.3    # a command this close to its goal's angles ...
 COMMAND_AT_M = 0.0015   # ... and depth has arrived
 
@@ -60,22 +59,22 @@ class GraspPolicy(Oracle):
         above = np.array([point[0], point[1], max(point[2] + CLEARANCE_M, tip[2])])
         across = norm((tip - point)[:2])
         if command["jaw"] < JAW_OPEN_DEG - 0.5:  # the jaws are shutting or shut, holding nothing
-            if now["jaw"] <= JAW_SHUT_DEG or across > NEAR_M:  # shut on nothing, or not over the point
+            if now["jaw"] <= JAW_SHUT_DEG:  # shut on nothing: open where they are
                 return "open", dict(command, jaw=JAW_OPEN_DEG), tip
-            return "close", self.at(tool, grip, JAW_CLOSED_DEG), grip
+            return "close", dict(command, jaw=JAW_CLOSED_DEG), tip  # where they are: no chasing
         approach = self.at(tool, above, JAW_OPEN_DEG)
-        # over the point, or as near it as the tool reaches
-        if across > NEAR_M + norm((self.tip(tool, approach) - above)[:2]):
+        # over the point, or as near it as the tool reaches; going down, within a wider circle
+        near = NEAR_M + norm((self.tip(tool, approach) - above)[:2])
+        if across > near and not (across <= near + NEAR_M and tip[2] < above[2] - NEAR_M):
             if across > FAR_M and (tip[2] < point[2] + LOW_M or self.near_bowel(observation, tip)):
                 # up first, straight along the shaft: a tip low among the loops drags them along
                 return "rise", self.at_height(tool, dict(command, jaw=JAW_OPEN_DEG), tip[2] + CLEARANCE_M), \
                     np.array([tip[0], tip[1], tip[2] + CLEARANCE_M])
             return "approach", approach, above
         goal = self.at(tool, grip, JAW_OPEN_DEG)
-        # the jaws close where they were sent, or where the bowel stops them short of it (the
-        # command runs ahead of the tool: the servo presses on the bowel)
-        blocked = norm(tip - grip) <= BLOCKED_WITHIN_M and norm(self.tip(tool, command) - tip) >= BLOCKED_LAG_M
-        if not (self.arrived(command, goal) or blocked):
+        # the jaws close once sent there (a bowel pushed ahead of them is followed: the command
+        # is then at most SENT_M behind the moving goal), wherever the bowel stopped them
+        if norm(self.tip(tool, command) - self.tip(tool, goal)) > SENT_M:
             return "descend", goal, grip
         return "close", self.at(tool, grip, JAW_CLOSED_DEG), grip
 

@@ -70,6 +70,7 @@ class RetractReach(base.BowelTask):
 
     def task_observations(self, physics: Physics) -> dict:
         return {"target": physics.target(), "target_coverage": self.measurements(physics).coverage.copy(),
+                "held_abscissa": physics.held_abscissae(),
                 "grasper_tip": physics.working_point("grasper")}
 
     def potential(self, physics: Physics) -> float:
