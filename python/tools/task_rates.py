@@ -54,28 +54,42 @@ import viscera.tasks
 from viscera import cli
 
 POLICIES = ("scripted", "random", "nothing")
+HANDOVER_FRACTIONS = (0.25, 0.5, 0.75)  # of each seed's scripted episode from the start
+HANDOVER_NOISE = 0.02  # of each actuator's range, per control step, before a hand-over
 OUT = pathlib.Path("docs") / "tasks" / "rates.json"
 
 
 def episode(task: str, seed: int, policy: str, max_steps: int | None = None, scene: str = "abdomen",
-            time_limit_factor: float = 1.0) -> dict:
+            time_limit_factor: float = 1.0, handover_s: float | None = None,
+            handover_noise: float = HANDOVER_NOISE) -> dict:
     """One episode of `task` on `scene` from `seed` under `policy` (whole, or its first `max_steps`
     control steps), `time_limit_factor` times the task's time limit: success, simulated and wall
-    seconds, the intestines' recoveries and divergences."""
+    seconds, the intestines' recoveries and divergences.
+
+    With `handover_s`, the scripted policy plays the first `handover_s` seconds with Gaussian
+    noise of `handover_noise` times each actuator's range added to every action (drawn from the
+    seed), then a fresh scripted policy, built anew, plays the rest from the state it is handed."""
     options = {} if time_limit_factor == 1.0 else {
         "time_limit": viscera.tasks.base.SUITE[task].TIME_LIMIT_S * time_limit_factor}
     env = viscera.tasks.load(task, seed=seed, scene=scene, **options)
     spec = env.action_spec()
     rng = np.random.RandomState(seed)
     act = viscera.tasks.scripted_policy(env) if policy == "scripted" else None
+    noise_rng = np.random.default_rng([seed, 0xA0])
+    spread = handover_noise * (spec.maximum - spec.minimum)
     start = time.perf_counter()
     step = env.reset()
     hold = env.physics.data.ctrl.copy()  # where the episode starts the tools: doing nothing holds them
     steps = 0
+    handed = handover_s is None
     while not step.last() and (max_steps is None or steps < max_steps):
         steps += 1
+        if not handed and env.physics.data.time >= handover_s - 1e-9:
+            act, handed = viscera.tasks.scripted_policy(env), True  # fresh: it knows only what it is handed
         if policy == "scripted":
             action = act(step)
+            if not handed:
+                action = np.clip(action + spread * noise_rng.standard_normal(action.shape), spec.minimum, spec.maximum)
         elif policy == "random":
             action = rng.uniform(spec.minimum, spec.maximum)
         else:
@@ -89,25 +103,60 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None, sce
             "divergences": sum(gut.divergence_count(data) for gut in guts)}
 
 
+def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> list[float]:
+    """The Wilson score interval of a success rate (95 % by default): [low, high]."""
+    if trials == 0:
+        return [0.0, 1.0]
+    p = successes / trials
+    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
+    half = z * np.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    return [float(max(0.0, centre - half)), float(min(1.0, centre + half))]
+
+
 def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bool = False,
-          max_steps: int | None = None, scene: str = "abdomen", time_limit_factor: float = 1.0) -> dict:
-    """Per task and policy: the success rate over `seeds`, the seeds that succeeded, the median
-    wall time per episode, the recoveries and divergences (each episode's, and their total)."""
+          max_steps: int | None = None, scene: str = "abdomen", time_limit_factor: float = 1.0,
+          handover: bool = False) -> dict:
+    """Per task and policy: the success rate over `seeds` with its 95 % interval, the seeds that
+    succeeded, the median wall time per episode, the recoveries and divergences (each episode's,
+    and their total). With `handover`, the scripted policies again, each seed's episode handed to
+    a fresh script at HANDOVER_FRACTIONS of its length from the start (episode's handover_s)."""
     jobs = [(task, seed, policy, max_steps, scene, time_limit_factor) for task in tasks for policy in policies for seed in seeds]
     with concurrent.futures.ProcessPoolExecutor(workers or os.cpu_count()) as pool:
         rows = list(tqdm(pool.map(episode, *zip(*jobs)), total=len(jobs), desc="episodes", disable=quiet))
+        handed = []
+        if handover and "scripted" in policies:
+            control = 0.02
+            later = [(r["task"], r["seed"], "scripted", max_steps, scene, time_limit_factor,
+                      round(fraction * r["simulated_s"] / control) * control, HANDOVER_NOISE, fraction)
+                     for fraction in HANDOVER_FRACTIONS for r in rows if r["policy"] == "scripted"]
+            results = tqdm(pool.map(episode, *zip(*[job[:-1] for job in later])), total=len(later),
+                           desc="hand-overs", disable=quiet)
+            handed = [dict(r, fraction=job[-1]) for job, r in zip(later, results)]
     out: dict = {}
     for task in tasks:
         for policy in policies:
             mine = [r for r in rows if r["task"] == task and r["policy"] == policy]
             out.setdefault(task, {})[policy] = {
                 "episodes": len(mine), "success_rate": float(np.mean([r["success"] for r in mine])),
+                "interval_95": wilson_interval(sum(r["success"] for r in mine), len(mine)),
                 "succeeded_seeds": [r["seed"] for r in mine if r["success"]],
                 "median_wall_s_per_episode": float(np.median([r["wall_s"] for r in mine])),
                 "median_simulated_s": float(np.median([r["simulated_s"] for r in mine])),
                 "min_control_steps": min(r["control_steps"] for r in mine),
                 "recoveries": [r["recoveries"] for r in mine], "recoveries_total": sum(r["recoveries"] for r in mine),
                 "divergences_total": sum(r["divergences"] for r in mine)}
+            if policy == "scripted" and handed:
+                table = out[task][policy]["handover"] = {
+                    "noise_of_range": HANDOVER_NOISE, "at": "fractions of each seed's scripted episode from the start",
+                    "fractions": {}}
+                for fraction in HANDOVER_FRACTIONS:
+                    theirs = [r for r in handed if r["task"] == task and r["fraction"] == fraction]
+                    wins = sum(r["success"] for r in theirs)
+                    rate = wins / len(theirs)
+                    table["fractions"][str(fraction)] = {
+                        "success_rate": rate, "interval_95": wilson_interval(wins, len(theirs)),
+                        "of_start_rate": rate / out[task][policy]["success_rate"] if out[task][policy]["success_rate"] else None,
+                        "succeeded_seeds": [r["seed"] for r in theirs if r["success"]]}
     return out
 
 
@@ -129,13 +178,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="the cavity the tasks load (default abdomen)")
     parser.add_argument("--time-limit-factor", type=cli.positive_float, default=1.0,
                         help="each episode lasts this many times its task's time limit (default 1)")
+    parser.add_argument("--handover", action="store_true",
+                        help="also hand each scripted episode to a fresh script at a quarter, half and three "
+                             "quarters of its length, after noisy actions (2 %% of each actuator's range)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     result = {"control_timestep_s": 0.02, "scene": args.scene,
               "seeds": {policy: [seeds.start, seeds.stop - 1] for policy in args.policies},
               "rates": rates(args.tasks, seeds, args.policies, quiet=args.quiet, max_steps=args.max_steps,
-                             scene=args.scene, time_limit_factor=args.time_limit_factor)}
+                             scene=args.scene, time_limit_factor=args.time_limit_factor, handover=args.handover)}
     if args.time_limit_factor != 1.0:
         result["time_limit_factor"] = args.time_limit_factor
     if args.max_steps:
@@ -150,6 +202,8 @@ def main(argv: list[str] | None = None) -> int:
         print(task + ": " + ", ".join(f"{policy} {row['success_rate']:.0%} ({row['median_wall_s_per_episode']:.1f} s "
                                       f"wall per episode, {row.get('recoveries_total', 0)} recoveries)"
                                       for policy, row in table.items()))
+        for fraction, row in table.get("scripted", {}).get("handover", {}).get("fractions", {}).items():
+            print(f"  handed to a fresh script at {float(fraction):.0%} of the episode: {row['success_rate']:.0%}")
     if args.out:
         pathlib.Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.out}")

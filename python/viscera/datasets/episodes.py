@@ -17,6 +17,11 @@ from viscera.checks import finite_array
 from viscera.scale.gym_env import IMAGE_KEYS, TaskEnv
 
 DEMONSTRATORS = ("scripted", "random", "idle")   # with "recordings": the episodes of recording files; "policy": a policy file's
+ORACLE_LABELS = {  # name -> what it is (units), per action of a scripted oracle
+    "phase": "the oracle's phase: its index in the task's oracle's PHASES (viscera.tasks.oracle_phases)",
+    "lead": "the tool the phase is about: its index in the task's tools (the actuators' order)",
+    "aims": "where each tool's working point is going (m, world), tools in the actuators' order (a tool held still: where it is held)",
+}
 PRIVILEGED = {  # name -> what it is (units)
     "control_points": "the first intestine's spline control points (m, world), (n, 3)",
     "tool_forces": "each tool's force and torque from the tissue (N, N m), as the task's tool_forces",
@@ -43,6 +48,9 @@ class Episode:
     is_success: np.ndarray          # (T + 1,) bool, the task's lasting success after each tick
     images: dict[str, np.ndarray]   # pixels (T + 1, H, W, 3) uint8, depth float32 m, segmentation uint8
     privileged: dict[str, np.ndarray]  # PRIVILEGED's names, (T + 1, ...)
+    # what a scripted oracle said it was doing at each action (viscera.tasks.oracle.Decision), empty
+    # for other demonstrators: ORACLE_LABELS' names, (T, ...)
+    oracle: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
     @property
     def steps(self) -> int:
@@ -117,6 +125,7 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
         recording.policy_for(dm_env, demonstrator, seed)
     states, images = [], {k: [] for k in IMAGE_KEYS} if isinstance(observation, dict) else {}
     moves, labels, rewards, terminated, truncated = [], [], [], [], []
+    said = []  # the oracle's decisions (a scripted demonstrator's)
     noise_rng = np.random.default_rng([int(seed), 0x5EED])
     noise = np.zeros(env.action_space.shape)
     decay = np.exp(-dm_env.control_timestep() / NOISE_CORRELATION_S)
@@ -144,6 +153,9 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
         # a demonstrator's NaN or wrong-sized command stops here, named, before it reaches MuJoCo
         dm_action = finite_array(f"action of {demonstrator} for seed {seed} at step {t}",
                                  actions[t] if actions is not None else act(time_step), env.action_space.shape)
+        decision = getattr(act, "last", None) if actions is None else None
+        if decision is not None:
+            said.append(decision.vector(act.PHASES, act.names))
         label = action = np.clip(env.gym_action(dm_action), -1.0, 1.0)
         if action_noise > 0.0:
             noise = decay * noise + action_noise * np.sqrt(1.0 - decay ** 2) * noise_rng.standard_normal(noise.shape)
@@ -177,5 +189,13 @@ def run(env: TaskEnv, seed: int, demonstrator: str, actions: np.ndarray | None =
         reward=np.asarray(rewards, dtype=np.float64), terminated=np.asarray(terminated, dtype=bool),
         truncated=np.asarray(truncated, dtype=bool), is_success=np.asarray(success, dtype=bool),
         images={k: np.stack(v) for k, v in images.items()},
-        privileged={k: np.stack(v) for k, v in privileged.items()})
+        privileged={k: np.stack(v) for k, v in privileged.items()},
+        oracle=_oracle_labels(said) if len(said) == len(moves) else {})
+
+
+def _oracle_labels(said: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """ORACLE_LABELS from the oracle's Decision.vector rows."""
+    rows = np.asarray(said, dtype=np.float64)
+    return {"phase": rows[:, 0].astype(np.int64), "lead": rows[:, 1].astype(np.int64),
+            "aims": rows[:, 2:].reshape(len(rows), -1, 3)}
 

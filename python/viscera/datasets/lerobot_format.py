@@ -15,7 +15,10 @@ One frame per control tick (LeRobot keeps no frame for the observation after the
 - `demonstrator_action`: what the demonstrator commanded (the action, unless noise was injected);
 - `next.reward` (float32), `next.done`, `next.success` (bool): after the frame's action;
 - `seed`: the task's seed, the same on every frame of an episode;
-- `privileged.<name>`: the privileged state (viscera.datasets.episodes.PRIVILEGED), float32.
+- `privileged.<name>`: the privileged state (viscera.datasets.episodes.PRIVILEGED), float32;
+- with the scripted demonstrator (an oracle, viscera.tasks.oracle), `oracle.phase` and
+  `oracle.lead` (int64) and `oracle.aims` (float32, m, per tool x y z): what it said
+  it was doing at the frame's action (viscera.datasets.episodes.ORACLE_LABELS).
 The task string is the task's success criterion. LeRobot stores floats as float32 (its loader
 returns them so), so the float64 simulation values are rounded once, on writing.
 """
@@ -54,6 +57,14 @@ def features(episode: Episode) -> dict:
                                       "names": ["height", "width"]}
         found["observation.segmentation"] = {"dtype": "uint8", "shape": episode.images["segmentation"].shape[1:],
                                              "names": ["height", "width"]}
+    for name, values in episode.oracle.items():
+        if name == "aims":
+            tools = [n.rsplit("_", 1)[0] for n in episode.action_names]
+            tools = list(dict.fromkeys(tools))
+            found["oracle.aims"] = {"dtype": "float32", "shape": (values.shape[1] * 3,),
+                                    "names": [f"{tool}.{c}" for tool in tools for c in "xyz"]}
+        else:
+            found[f"oracle.{name}"] = {"dtype": "int64", "shape": (1,), "names": None}
     for name in PRIVILEGED:
         shape = episode.privileged[name].shape[1:]
         if int(np.prod(shape)) > 0:  # a task without a grasper has no grasp state
@@ -75,6 +86,9 @@ def frames(episode: Episode, criterion: str):
             frame[CAMERA_KEY] = episode.images["pixels"][t]
             frame["observation.depth"] = episode.images["depth"][t].astype(np.float32)
             frame["observation.segmentation"] = episode.images["segmentation"][t].astype(np.uint8)
+        for name, values in episode.oracle.items():
+            frame[f"oracle.{name}"] = values[t].ravel().astype(np.float32) if name == "aims" else \
+                np.array([values[t]], dtype=np.int64)
         for name, values in episode.privileged.items():
             if values[t].size:
                 frame[f"privileged.{name}"] = values[t].astype(np.float32)

@@ -13,7 +13,10 @@ The dataset's id is `viscera/<task>/<demonstrator>-v0` under a datasets root (MI
   `demonstrator_action`, what the demonstrator commanded (the action unless noise was injected;
   infos follow each step, so row t + 1 labels action t and the reset's row 0 is zeros);
 - each episode's seed is the task's seed; the environment spec recovers the environment
-  (`dataset.recover_environment()`, after `import viscera`).
+  (`dataset.recover_environment()`, after `import viscera`);
+- with the scripted demonstrator, infos `oracle`: `phase`, `lead`, `aims`, what the oracle said it
+  was doing (viscera.datasets.episodes.ORACLE_LABELS; as demonstrator_action, row t + 1 labels
+  action t, and the reset's row 0 is -1, -1 and zeros).
 """
 
 from __future__ import annotations
@@ -38,11 +41,14 @@ def _buffer(episode: Episode):
         observations = {"state": episode.state, **episode.images}
     else:
         observations = episode.state
+    infos = {"is_success": episode.is_success, "privileged": dict(episode.privileged),
+             "demonstrator_action": np.concatenate([np.zeros_like(episode.action[:1]), episode.demonstrator_action])}
+    if episode.oracle:
+        infos["oracle"] = {name: np.concatenate([np.zeros_like(values[:1]) if name == "aims" else np.full_like(values[:1], -1), values])
+                           for name, values in episode.oracle.items()}
     return EpisodeBuffer(seed=episode.seed, observations=observations, actions=episode.action,
                          rewards=episode.reward, terminations=episode.terminated, truncations=episode.truncated,
-                         infos={"is_success": episode.is_success, "privileged": dict(episode.privileged),
-                                "demonstrator_action": np.concatenate([np.zeros_like(episode.action[:1]),
-                                                                       episode.demonstrator_action])})
+                         infos=infos)
 
 
 class MinariWriter:

@@ -3,7 +3,8 @@
     env = viscera.tasks.load("clear_area", seed=0)   # a dm_env.Environment
     env = viscera.tasks.load("clear_area", seed=0, pixels=True, width=84, height=84)  # + camera images
     viscera.tasks.ALL                                 # the task names
-    policy = viscera.tasks.scripted_policy(env)       # its scripted closed-loop policy
+    policy = viscera.tasks.scripted_policy(env)       # its scripted oracle (viscera.tasks.oracle)
+    decision = policy.decide(time_step.observation)   # the action, phase, lead tool and aims
     viscera.tasks.reseed(env, 1)                      # as if loaded with seed 1 (for reused envs)
 
 A task is one module of this folder, its class registered where it is written
@@ -63,9 +64,18 @@ def close(env) -> None:
 
 
 def scripted_policy(env):
-    """The task's scripted closed-loop policy for `env` (a callable from a dm_env TimeStep to an
-    action), working from the observations only: its class's POLICY."""
+    """The task's scripted oracle for `env` (viscera.tasks.oracle.Oracle: a callable from a dm_env
+    TimeStep to an action, and `decide(observation)` for the action with its phase, lead tool and
+    aims), deciding every step from the observation alone: its class's POLICY."""
     return env.task.scripted_policy(env)
+
+
+def oracle_phases(name: str) -> tuple[str, ...]:
+    """The phases task `name`'s scripted oracle names (viscera.tasks.oracle.Decision.phase): what a
+    dataset's `oracle.phase` indexes."""
+    if name not in base.SUITE:
+        raise KeyError(f"unknown task {name!r}; known: {ALL}")
+    return tuple(base.SUITE[name].POLICY.PHASES)
 
 
 def reseed(env, seed: int | None) -> None:

@@ -22,7 +22,8 @@ going, at most TIP_SPEED and slowing within SETTLE_S of the goal; the command is
 command plus that step, so it depends on the state only. Roll and jaw turn at their own limits.
 
 `Decision.vector()` packs a decision into fixed-size numbers for datasets (the phase's index in
-the oracle's PHASES, the lead tool's index, each tool's aim, NaN where it has none).
+the oracle's PHASES, the lead tool's index, each tool's aim; a tool held still aims where it is
+held).
 """
 
 from __future__ import annotations
@@ -104,12 +105,12 @@ class Decision:
     action: np.ndarray                 # the dm_env action (rad, m), actuator order
     phase: str                         # one of the oracle's PHASES
     lead: str                          # the tool the phase is about
-    aims: dict                         # tool -> where its working point is going (m, world, (3,))
+    aims: dict                         # tool -> where its working point is going (m, world, (3,)); every tool
 
     def vector(self, phases: tuple[str, ...], tools: tuple[str, ...]) -> np.ndarray:
-        """[phase index, lead tool index, then each tool's aim (m) in `tools` order, NaN where none]."""
-        aims = [np.asarray(self.aims[t], dtype=float) if t in self.aims else np.full(3, np.nan) for t in tools]
-        return np.concatenate([[float(phases.index(self.phase)), float(tools.index(self.lead))]] + aims)
+        """[phase index, lead tool index, then each tool's aim (m) in `tools` order]."""
+        return np.concatenate([[float(phases.index(self.phase)), float(tools.index(self.lead))]]
+                              + [np.asarray(self.aims[t], dtype=float) for t in tools])
 
 
 def shaft_direction(pitch_deg: float, yaw_deg: float) -> np.ndarray:
@@ -197,8 +198,9 @@ class Oracle:
             nxt = self.step_towards(tool, commands[tool], goals[tool]) if tool in goals else commands[tool]
             values[tool] = np.array([nxt[c] for c in COORDINATES])
         assert phase in self.PHASES, phase
-        return Decision(self.tools.action(values), phase, lead,
-                        {t: np.asarray(p, dtype=float) for t, p in aims.items()})
+        # a tool without an aim is held where it was last sent: that is its aim
+        aims = {t: np.asarray(aims[t], dtype=float) if t in aims else self.tip(t, commands[t]) for t in self.names}
+        return Decision(self.tools.action(values), phase, lead, aims)
 
     def decide(self, observation) -> Decision:
         raise NotImplementedError

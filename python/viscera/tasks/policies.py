@@ -27,6 +27,7 @@ LOW_M = 0.02            # a tip lower than this above the point, and farther tha
 FAR_M = 0.025
 JAW_SHUT_DEG = 1.0      # a jaw at or under this has shut (on nothing, if it holds nothing)
 SENT_M = 0.005          # a command whose working point is this close to the goal's has been sent there
+TAUT = 0.85            # bowel whose chord is this share of its length along the axis runs taut
 COMMAND_AT_DEG = 0.3    # a command this close to its goal's angles ...
 COMMAND_AT_M = 0.0015   # ... and depth has arrived
 
@@ -58,8 +59,9 @@ class GraspPolicy(Oracle):
         # over the point at its clearance, or at the tip's height if higher: no dip on the way
         above = np.array([point[0], point[1], max(point[2] + CLEARANCE_M, tip[2])])
         across = norm((tip - point)[:2])
-        if command["jaw"] < JAW_OPEN_DEG - 0.5:  # the jaws are shutting or shut, holding nothing
-            if now["jaw"] <= JAW_SHUT_DEG:  # shut on nothing: open where they are
+        if command["jaw"] < JAW_OPEN_DEG - 0.5:  # the jaws are not (yet) open, holding nothing
+            # opening (the command leads the jaw up), or shut on nothing: open where they are
+            if command["jaw"] > now["jaw"] + JAW_SHUT_DEG or now["jaw"] <= JAW_SHUT_DEG:
                 return "open", dict(command, jaw=JAW_OPEN_DEG), tip
             return "close", dict(command, jaw=JAW_CLOSED_DEG), tip  # where they are: no chasing
         approach = self.at(tool, above, JAW_OPEN_DEG)
@@ -180,7 +182,8 @@ class RunTheBowelPolicy(GraspPolicy):
             targets = [mark]
         for i in goers:
             points = [self.axis_point(axis, s) for s in targets]
-            point = next((q for q in points if shaft_within_reach(self.tools.trocar[hands[i]], q)), points[0])
+            reached = [q for q in points if shaft_within_reach(self.tools.trocar[hands[i]], q)] or points[:1]
+            point = reached[0]
             phases[hands[i]], goals[hands[i]], aims[hands[i]] = self.grasp(observation, hands[i], point)
         leader = next((h for h in hands if phases.get(h) in ("let go", "open")), None) or \
             next((hands[i] for i in goers), None) or hands[0]
