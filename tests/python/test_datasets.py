@@ -52,6 +52,11 @@ def test_minari_dataset_reloads_bit_for_bit(tmp_path, grasps):
         assert np.array_equal(written.infos["is_success"], expected.is_success)
         for name, values in expected.privileged.items():
             assert np.array_equal(written.infos["privileged"][name], values)
+        # the oracle's labels: row t + 1 labels action t, the reset's row 0 is -1, -1 and zeros
+        assert sorted(written.infos["oracle"]) == sorted(episodes.ORACLE_LABELS)
+        for name, values in expected.oracle.items():
+            assert np.array_equal(written.infos["oracle"][name][1:], values), name
+            assert np.all(written.infos["oracle"][name][0] == (0.0 if name == "aims" else -1)), name
         # a scripted grasp succeeds and the task ends it: the last step is a termination
         assert expected.success and written.terminations[-1] and not written.truncations.any()
     # the recorded environment is the one the episodes ran in: same first observation
@@ -59,6 +64,38 @@ def test_minari_dataset_reloads_bit_for_bit(tmp_path, grasps):
     first, _ = env.reset(seed=grasps[0].seed)
     assert np.array_equal(first["state"], grasps[0].state[0])
     env.close()
+
+
+def test_a_scripted_episode_carries_its_oracles_labels(grasps):
+    """Each action of a scripted episode is labelled with what the oracle decided it was doing
+    (viscera.tasks.oracle.Decision: the phase, the lead tool, each tool's aim); an oracle built
+    anew, handed the episode's own states (the flat state the dataset keeps, unflattened), decides
+    those labels and the action taken, bit for bit: the labels belong to the states they sit
+    beside. Other demonstrators carry none."""
+    import viscera.tasks
+    from viscera.scale.gym_env import TaskEnv
+    env = TaskEnv(**episodes.env_kwargs("grasp_lift", "abdomen", False, SIZE))
+    phases = viscera.tasks.oracle_phases("grasp_lift")
+    for expected in grasps:
+        assert sorted(expected.oracle) == sorted(episodes.ORACLE_LABELS)
+        assert expected.oracle["phase"].shape == expected.oracle["lead"].shape == (expected.steps,)
+        assert expected.oracle["aims"].shape == (expected.steps, 1, 3)  # one tool: the grasper
+        assert expected.oracle["phase"].dtype == expected.oracle["lead"].dtype == np.int64
+        said = [phases[i] for i in expected.oracle["phase"]]
+        assert said[0] == "approach" and said[-1] == "hold" and {"descend", "close", "lift"} <= set(said)
+        oracle = viscera.tasks.scripted_policy(viscera.tasks.load("grasp_lift", seed=expected.seed))
+        for t in range(expected.steps):
+            decision = oracle.decide(env.unflatten(expected.state[t]))
+            vector = decision.vector(oracle.PHASES, oracle.names)
+            assert vector[0] == expected.oracle["phase"][t] and vector[1] == expected.oracle["lead"][t], t
+            assert np.array_equal(vector[2:], expected.oracle["aims"][t].ravel()), t
+            action = np.clip(env.gym_action(decision.action), -1.0, 1.0)
+            assert np.array_equal(action, expected.demonstrator_action[t]), t
+    env.close()
+    short = TaskEnv("grasp_lift", flatten=True, time_limit=0.1)
+    idle = episodes.run(short, 3, "idle")
+    short.close()
+    assert idle.steps == 5 and idle.oracle == {}
 
 
 def test_lerobot_dataset_reloads_frame_for_frame(tmp_path):
@@ -77,6 +114,10 @@ def check_lerobot_dataset(tmp_path, grasps):
     out = tmp_path / "lerobot"
     datasets.write("grasp_lift", out, "lerobot", seeds=[3, 4], pixels=True, size=SIZE)
     dataset = datasets.load(out, "lerobot", "grasp_lift", "scripted")
+    features = dataset.meta.features
+    assert features["oracle.phase"]["dtype"] == features["oracle.lead"]["dtype"] == "int64"
+    assert features["oracle.aims"]["dtype"] == "float32"
+    assert features["oracle.aims"]["names"] == ["grasper.x", "grasper.y", "grasper.z"]  # m, per tool
     assert dataset.num_episodes == 2 and dataset.num_frames == sum(e.steps for e in grasps)
     index, decoded = 0, []
     for episode_index, expected in enumerate(grasps):
@@ -94,6 +135,10 @@ def check_lerobot_dataset(tmp_path, grasps):
             assert np.array_equal(frame["observation.segmentation"].numpy(), expected.images["segmentation"][t])
             assert np.array_equal(frame["privileged.control_points"].numpy(),
                                   expected.privileged["control_points"][t].astype(np.float32))
+            assert int(frame["oracle.phase"]) == expected.oracle["phase"][t]  # what the oracle said it did
+            assert int(frame["oracle.lead"]) == expected.oracle["lead"][t]
+            aims = expected.oracle["aims"][t].ravel().astype(np.float32)
+            assert np.array_equal(frame["oracle.aims"].numpy(), aims)
             decoded.append(np.round(frame["observation.images.laparoscope"].numpy().transpose(1, 2, 0) * 255.0))
         assert bool(dataset[index - 1]["next.done"]) and bool(dataset[index - 1]["next.success"])
         # RGB is video (LeRobot's AV1, lossy): each decoded frame is its written frame within the

@@ -150,8 +150,8 @@ CPU_DEPENDENT = re.compile(r"np\.linalg\.norm\(|np\.(dot|vdot|inner|matmul|tenso
                            r"[\w)\]]\s*@\s*[\w(\[]")
 
 
-@pytest.mark.parametrize("module", ["tasks/policies.py", "tasks/gesture.py", "tasks/carry.py", "tasks/scene.py",
-                                    "trajectory.py"])
+@pytest.mark.parametrize("module", ["tasks/oracle.py", "tasks/policies.py", "tasks/gesture.py", "tasks/carry.py",
+                                    "tasks/scene.py", "trajectory.py"])
 def test_the_policies_use_only_machine_independent_arithmetic(module):
     """The scripted policies' code, and the episode draws', reaches no CPU-dependent numpy call,
     even on the branches the episodes above do not take: norms, dot products and transcendentals

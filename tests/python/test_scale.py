@@ -28,6 +28,14 @@ def local_ray():
     ray.shutdown()
 
 
+def observation_size(**task_kwargs) -> int:
+    """clear_area's flat observation length: every entry of its observation spec (440 by default:
+    the tools' joints and last commands, 9 + 9, forces 12, the hold 1, the axis 300, gravity 3, the
+    target 5 and its coverage 100, the held abscissa 1)."""
+    spec = viscera.tasks.load("clear_area", **task_kwargs).observation_spec()
+    return sum(int(np.prod(entry.shape)) for entry in spec.values())
+
+
 def assert_same(trajectories, reference):
     assert [t.seed for t in trajectories] == SEEDS
     for got, want in zip(trajectories, reference):
@@ -38,7 +46,8 @@ def test_serial_trajectories_are_episodes_of_their_seeds(serial):
     assert [t.seed for t in serial] == SEEDS
     first = serial[0]
     observations, actions, rewards = first  # unpacks as the issue's triple
-    assert observations.shape == (STEPS + 1, 430) and actions.shape == (STEPS, 9) and rewards.shape == (STEPS,)
+    assert observations.shape == (STEPS + 1, observation_size()) and actions.shape == (STEPS, 9)
+    assert rewards.shape == (STEPS,)
     assert np.all(first.discounts == 1.0) and not first.ended
     # each seed draws its own episode (bowel, tissue, tilt, target), and its policy differs
     assert not any(np.array_equal(t.observations[0], first.observations[0]) for t in serial[1:])
@@ -139,15 +148,19 @@ def test_a_reduced_observation_ships_a_third_of_the_bytes():
     full = scale.collect("clear_area", SEEDS, STEPS, backend="serial", axis_samples=50)
     reduced = scale.collect("clear_area", SEEDS, STEPS, workers=2, backend="processes", observation_dtype="float32",
                             axis_samples=50)
+    size, default_size = observation_size(axis_samples=50), observation_size()
+    assert default_size - size == 150  # 50 axis points fewer, 3 coordinates each; every other entry kept
     for small, large in zip(reduced, full):
-        assert small.observations.dtype == np.float32 and small.observations.shape == (STEPS + 1, 9 + 12 + 1 + 150 + 3 + 5 + 100)
+        assert small.observations.dtype == np.float32 and small.observations.shape == (STEPS + 1, size)
+        assert small.observation("intestine_axis").shape == (STEPS + 1, 150)
         assert np.array_equal(small.observations, large.observations.astype(np.float32))
         assert np.array_equal(small.actions, large.actions)  # the same seeds' policies, the same episodes
     default = scale.collect("clear_area", SEEDS[:1], STEPS, backend="serial")[0]
     per_step_records = STEPS * (9 + 1 + 1) * 8  # actions, rewards, discounts: float64
-    assert reduced[0].nbytes == (STEPS + 1) * 280 * 4 + per_step_records
-    assert default.nbytes == (STEPS + 1) * 430 * 8 + per_step_records
-    assert reduced[0].nbytes / default.nbytes < 0.35  # 2.9x fewer bytes
+    assert reduced[0].nbytes == (STEPS + 1) * size * 4 + per_step_records
+    assert default.nbytes == (STEPS + 1) * default_size * 8 + per_step_records
+    # 290 float32 against 440 float64: 2.9x fewer bytes (the axis is 300 of the 440 by default)
+    assert reduced[0].nbytes / default.nbytes < 0.35
     assert default.observation("intestine_axis").shape == (STEPS + 1, 300)
 
 

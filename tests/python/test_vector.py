@@ -195,7 +195,9 @@ def test_cleanrl_style_loop_records_episode_returns():
     """The loop of CleanRL's ppo_continuous_action: vector env, RecordEpisodeStatistics, next-step autoreset."""
     envs = gym.wrappers.vector.RecordEpisodeStatistics(
         vector.make("clear_area", num_envs=2, seed=1, backend="threads", **SHORT))
-    assert envs.single_observation_space.shape == (430,) and envs.single_action_space.shape == (9,)
+    spec = viscera.tasks.load("clear_area").observation_spec()  # the flat observation: every entry of the spec
+    assert envs.single_observation_space.shape == (sum(int(np.prod(e.shape)) for e in spec.values()),)
+    assert envs.single_action_space.shape == (9,)
     observation, _ = envs.reset(seed=1)
     returns = np.zeros(2)
     episodes = []
