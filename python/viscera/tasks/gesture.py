@@ -42,7 +42,7 @@ from viscera.numerics import dot, norm, norms
 from viscera.tasks import scene
 from viscera.tasks.base import GRID, shaft_within_reach
 from viscera.tasks.oracle import Decision
-from viscera.tasks.policies import FAR_M, JAW_CLOSED_DEG, JAW_OPEN_DEG, JAW_SHUT_DEG, GraspPolicy
+from viscera.tasks.policies import JAW_CLOSED_DEG, JAW_OPEN_DEG, JAW_SHUT_DEG, SENT_M, GraspPolicy
 
 TOOLS = ("grasper", "retractor")
 LAY_HEIGHT = 0.045  # m above the posterior wall where a carried loop is lowered and let go
@@ -52,8 +52,8 @@ TARGET_PATCH_HALF_M = 0.0005  # the target patch's half thickness: its centre is
 PLAN_SPACING_M = 0.03
 DROP_SPACING_M = 0.02  # m between the drops of the grid over the cavity's floor
 LAID_MARGIN_M = 0.025  # m: a held loop low outside the target grown by this is being laid
-WITHDRAWN_M = 0.002
-LEAVING_HEIGHT_M = 0.10  # m above the wall: a grasper higher, holding nothing, is leaving or gone    # a depth command at most this: the tool is withdrawn to its trocar
+WITHDRAWN_M = 0.002  # m: a depth command at most this: the tool is withdrawn to its trocar
+LEAVING_HEIGHT_M = 0.10  # m above the wall: a grasper higher, holding nothing, is leaving or gone
 
 
 def segment_distances2(cells: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
@@ -224,13 +224,18 @@ class ClearingGesture(GraspPolicy):
             return np.zeros(0, dtype=int)
         d2 = ((axis[:, None, :2] - covered[None, :, :]) ** 2).sum(axis=2)
         over = np.flatnonzero(d2.min(axis=1) <= (1.5 * self.radius) ** 2)
+        out = self.exposed_among(axis, over)
+        return out if len(out) else np.array([int(over[np.argmax(axis[over, 2])])] if len(over) else [], dtype=int)
+
+    def exposed_among(self, axis: np.ndarray, indices: np.ndarray) -> np.ndarray:
+        """Those of the axis points `indices` on which no other stretch of the bowel lies."""
         out = []
-        for i in over:
+        for i in indices:
             others = np.abs(np.arange(len(axis)) - i) > 2
             near = norms(axis[:, :2] - axis[i, :2]) < 1.5 * self.radius
             if not np.any(others & near & (axis[:, 2] > axis[i, 2] + self.radius)):
                 out.append(int(i))
-        return np.array(out if out else [int(over[np.argmax(axis[over, 2])])] if len(over) else [], dtype=int)
+        return np.array(out, dtype=int)
 
     def pick(self, observation, axis, tip, cells, centre, half, coverage):
         """The axis point to take (index) and the tip's goal over it: the best pick by its best
@@ -238,11 +243,14 @@ class ClearingGesture(GraspPolicy):
         candidates = self.exposed_over(axis, cells, coverage)
         if not len(candidates):
             return None
-        # going down on one: keep it (the nearest under the tip)
-        across = norms(axis[candidates, :2] - tip[:2])
-        under = (across <= 0.015) & (tip[2] <= axis[candidates, 2] + 0.05)
-        if under.any():
-            return int(candidates[np.flatnonzero(under)[np.argmin(across[under])]])
+        # going down on one: keep it (the nearest exposed point over the target under the tip,
+        # covering a cell or not: the coverage flickers while the jaws press on the loop)
+        over = np.flatnonzero(np.all(np.abs(axis[:, :2] - centre) <= half + 1.5 * self.radius, axis=1))
+        across = norms(axis[over, :2] - tip[:2])
+        under = over[(across <= 0.015) & (tip[2] <= axis[over, 2] + 0.05)]
+        under = self.exposed_among(axis, under)
+        if len(under):
+            return int(under[np.argmin(norms(axis[under, :2] - tip[:2]))])
         best, choice = -np.inf, None
         downhill = self.downhill(observation)
         for index in candidates:
@@ -286,42 +294,43 @@ class ClearingGesture(GraspPolicy):
         axis = self.plan_axis(observation)
         holding = float(np.asarray(observation["grasper_holding"])[0]) > 0.5
         if holding:
-            # out of the target (grown by LAID_MARGIN_M: picks lie within it) and low: a loop being laid
-            outside = bool(np.any(np.abs(tip[:2] - centre) > half + LAID_MARGIN_M))
-            laid = outside and tip[2] <= wall_z + LAY_HEIGHT + 0.01
-            if now["jaw"] > JAW_SHUT_DEG and command["jaw"] > JAW_CLOSED_DEG + 0.5 and not laid:
-                return "close", dict(command, jaw=JAW_CLOSED_DEG), tip
+            sent = self.tip(g, command)  # where it was sent: the tip is pushed about by the loops it carries over
             held = float(np.asarray(observation["held_abscissa"])[0])
             index = int(round(min(1.0, max(0.0, held / self.rest_length)) * (len(axis) - 1)))
-            drop = self.drop_for(observation, axis, index, tip, cells, centre, half)
+            drop = self.drop_for(observation, axis, index, sent, cells, centre, half)
             if drop is None:  # nothing feasible: straight out of the target, away from its centre
-                away = tip[:2] - centre
-                drop = tip[:2] + 0.08 * away / max(norm(away), 1e-9)
+                away = sent[:2] - centre
+                drop = sent[:2] + 0.08 * away / max(norm(away), 1e-9)
             lowered = np.array([drop[0], drop[1], wall_z + LAY_HEIGHT])
-            across = norm(tip[:2] - drop)
+            goal = self.at(g, lowered, JAW_CLOSED_DEG)
+            # out of the target (grown by LAID_MARGIN_M: picks lie within it) and low, or sent as
+            # low as it goes there: a loop being laid
+            outside = bool(np.any(np.abs(sent[:2] - centre) > half + LAID_MARGIN_M))
+            laid = outside and (tip[2] <= wall_z + LAY_HEIGHT + 0.01 or norm(sent - self.tip(g, goal)) <= SENT_M)
+            if now["jaw"] > JAW_SHUT_DEG and command["jaw"] > JAW_CLOSED_DEG + 0.5 and not laid:
+                return "close", dict(command, jaw=JAW_CLOSED_DEG), tip
+            across = norm(sent[:2] - drop)
             if laid and command["jaw"] > JAW_CLOSED_DEG + 0.5:  # letting go
                 return "release", dict(command, jaw=JAW_OPEN_DEG), lowered
             if across > 0.015:
-                if tip[2] < wall_z + self.carry_height - 0.04 and not outside:  # up first, off the other loops
-                    aim = np.array([tip[0], tip[1], wall_z + self.carry_height])
+                if sent[2] < wall_z + self.carry_height - 0.04 and not outside:  # up first, off the other loops
+                    aim = np.array([sent[0], sent[1], wall_z + self.carry_height])
                     return "lift", self.at(g, aim, JAW_CLOSED_DEG), aim
-                # at the carry height, or on at the tip's height once out of the target and lower
-                height = min(tip[2], wall_z + self.carry_height) if outside else wall_z + self.carry_height
+                # at the carry height, or on at the command's height once out of the target and lower
+                height = min(sent[2], wall_z + self.carry_height) if outside else wall_z + self.carry_height
                 aim = np.array([drop[0], drop[1], height])
                 return "carry", self.at(g, aim, JAW_CLOSED_DEG), aim
-            goal = self.at(g, lowered, JAW_CLOSED_DEG)
             if not laid:
                 return "lower", goal, lowered
             return "release", dict(goal, jaw=JAW_OPEN_DEG), lowered
-        if command["jaw"] < JAW_OPEN_DEG - 0.5 and not (now["jaw"] > JAW_SHUT_DEG):
-            pass  # shut on nothing: grasp() opens it
         over = self.exposed_over(axis, cells, coverage)
         if self.done(observation, tip, wall_z, bool(len(over))) and command["jaw"] >= JAW_OPEN_DEG - 0.5:
             goal = dict(command, depth=0.0, jaw=JAW_OPEN_DEG)
             return ("rest" if self.withdrawn(command) else "withdraw"), goal, self.tip(g, goal)
         if self.done(observation, tip, wall_z, bool(len(over))):
             return "open", dict(command, jaw=JAW_OPEN_DEG), tip
-        index = self.pick(observation, axis, tip, cells, centre, half, coverage)
+        # the pick from where the grasper was sent (its command moves smoothly; the tip is pushed about)
+        index = self.pick(observation, axis, self.tip(g, command), cells, centre, half, coverage)
         return self.grasp(observation, g, axis[index])
 
     def retractor(self, observation, grasper_phase: str) -> tuple[dict | None, np.ndarray | None]:
