@@ -167,7 +167,7 @@ def task_rates() -> str:
         cells = [f"`{task}`"]
         for policy in ("scripted", "random", "nothing"):
             row = table.get(policy)
-            cells.append(f"{row['success_rate']:.0%} of {row['episodes']}" if row else "-")
+            cells.append(f"{row['success_rate']:.0%} of {row['episodes']}{_interval(row)}" if row else "-")
         scripted = table.get("scripted")
         steps_per_s = scripted["median_simulated_s"] / data["control_timestep_s"] / scripted["median_wall_s_per_episode"]
         cells.append(f"{scripted['median_wall_s_per_episode']:.1f} s, {scripted['median_simulated_s']:.1f} s "
@@ -180,6 +180,39 @@ def task_rates() -> str:
                   f"doing nothing (seeds {seeds['nothing'][0]} to {seeds['nothing'][1]})",
                   "scripted: median wall and simulated time per episode, env steps/s",
                   "episodes with a divergence recovery: scripted, random, nothing"], rows)
+
+
+def _interval(row: dict) -> str:
+    """A rates row's 95 % (Wilson) interval, in brackets after its rate ("" in rates written before
+    task_rates.py wrote intervals)."""
+    if "interval_95" not in row:
+        return ""
+    low, high = row["interval_95"]
+    return f" ({low:.0%} to {high:.0%})"
+
+
+HANDOVER_FRACTIONS = ("0.25", "0.5", "0.75")  # task_rates.py's HANDOVER_FRACTIONS, as the JSON's keys
+
+
+def handover_rates() -> str:
+    """The scripted oracles handed a noisy episode part-way, from docs/tasks/rates.json (python
+    python/tools/task_rates.py --handover): the success rate and its 95 % interval from the start
+    and at each hand-over; a dash where the JSON has no hand-over (written without --handover)."""
+    data = _json("tasks/rates.json")
+    rows = []
+    for task, table in data["rates"].items():
+        scripted = table.get("scripted")
+        if scripted is None:
+            continue
+        cells = [f"`{task}`", f"{scripted['success_rate']:.0%} of {scripted['episodes']}{_interval(scripted)}"]
+        fractions = scripted.get("handover", {}).get("fractions", {})
+        for fraction in HANDOVER_FRACTIONS:
+            row = fractions.get(fraction)
+            cells.append(f"{row['success_rate']:.0%}{_interval(row)}" if row else "-")
+        rows.append(cells)
+    seeds = data["seeds"]["scripted"]
+    return _rows(["task", f"scripted from the start (seeds {seeds[0]} to {seeds[1]}; 95 % interval)"]
+                 + [f"handed over at {float(f):.0%}" for f in HANDOVER_FRACTIONS], rows)
 
 
 def anatomical_rates() -> str:
