@@ -52,6 +52,7 @@ TARGET_PATCH_HALF_M = 0.0005  # the target patch's half thickness: its centre is
 PLAN_SPACING_M = 0.03
 DROP_SPACING_M = 0.02  # m between the drops of the grid over the cavity's floor
 LAID_MARGIN_M = 0.025  # m: a held loop low outside the target grown by this is being laid
+GIVE_M = 0.007  # m: the most a reaching grasper gives way to a loop pressing on it
 WITHDRAWN_M = 0.002  # m: a depth command at most this: the tool is withdrawn to its trocar
 LEAVING_HEIGHT_M = 0.10  # m above the wall: a grasper higher, holding nothing, is leaving or gone
 
@@ -389,14 +390,26 @@ class RetractReachGesture(ClearingGesture):
         g = "grasper"
         command, now = self.commands(observation)[g], self.joints(observation)[g]
         holding = float(np.asarray(observation["grasper_holding"])[0]) > 0.5
-        if holding or not self.spot_clear(observation) or command["jaw"] < JAW_OPEN_DEG - 0.5:
+        centre, half, cells, wall_z = self.target_cells(observation)
+        # a covered spot with no loop over it to take (what covers it lies under others): reach all the same
+        takeable = len(self.exposed_over(self.plan_axis(observation), cells[self.scored(observation, cells)],
+                                         np.asarray(observation["target_coverage"], dtype=float)[self.scored(observation, cells)]))
+        # at the centre, what counts is the task's own test (no tube within its radius of the centre),
+        # not the spot's coverage cells, which flicker as the jaws press on the loops around them
+        sent = self.tip(g, command)
+        at_centre = norm(sent[:2] - centre) <= 0.01 and sent[2] <= wall_z + 0.02
+        covered = self.centre_covered(observation, centre) if at_centre else not self.spot_clear(observation)
+        if holding or (covered and takeable) or command["jaw"] < JAW_OPEN_DEG - 0.5:
             phase, goal, aim = super().grasper(observation)
             return phase, goal, aim
         tip = self.tip(g, now)
-        centre, _, _, wall_z = self.target_cells(observation)
         reach = np.append(centre, wall_z + self.reach_height)
         forces = np.asarray(observation["tool_forces"], dtype=float)
         pushing = norm(forces[0:3]) > self.push_force
+        # a loop pressing on the jaws at the centre: the tip gives way along the force, up to
+        # GIVE_M (the reach counts within 1 cm), more the harder it is pushed
+        give = GIVE_M * min(1.0, max(0.0, (norm(forces[0:3]) - 0.3 * self.push_force) / (0.4 * self.push_force)))
+        reach = reach + give * forces[0:3] / max(norm(forces[0:3]), 1e-9)
         if pushing and not self.pressing(observation):  # wait up for the retractor to hold that loop
             aim = np.array([tip[0], tip[1], wall_z + 0.05])
             return "rise", self.at(g, aim, JAW_OPEN_DEG), aim
@@ -407,6 +420,11 @@ class RetractReachGesture(ClearingGesture):
             aim = reach + np.array([0.0, 0.0, 0.05])
             return "reach over", self.at(g, aim, JAW_OPEN_DEG), aim
         return "reach", self.at(g, reach, JAW_OPEN_DEG), reach
+
+    def centre_covered(self, observation, centre: np.ndarray) -> bool:
+        """Some of the tube lies over the target's centre (m, x y): an axis segment within its radius."""
+        axis = np.asarray(observation["intestine_axis"], dtype=float).reshape(-1, 3)[:, :2]
+        return bool(np.any(segment_distances2(centre[None, :], axis[:-1], axis[1:]) <= self.radius ** 2))
 
     def pressing(self, observation) -> bool:
         forces = np.asarray(observation["tool_forces"], dtype=float)
