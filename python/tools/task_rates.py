@@ -4,18 +4,21 @@ written to docs/tasks/rates.json.
 
     python python/tools/task_rates.py [--seeds 50] [--first-seed 1000] [--tasks clear_area ...]
         [--policies scripted random nothing] [--max-steps N] [--scene abdomen|anatomical]
-        [--time-limit-factor F] [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
+        [--time-limit-factor F] [--handover] [--merge docs/tasks/rates.json] [--out docs/tasks/rates.json]
 
-The committed docs/tasks/rates.json holds the scripted policies over 50 seeds and random actions
-and doing nothing over 20 (random 90 s episodes are slow), from two runs:
+The committed docs/tasks/rates.json holds the scripted oracles over 100 seeds, each also handed
+to a fresh oracle at a quarter, half and three quarters of its episode (--handover), and random
+actions and doing nothing over 20 (random 90 s episodes are slow), from two runs:
 
-    python python/tools/task_rates.py --policies scripted --out docs/tasks/rates.json
+    python python/tools/task_rates.py --seeds 100 --policies scripted --handover --merge docs/tasks/rates.json \
+        --out docs/tasks/rates.json
     python python/tools/task_rates.py --seeds 20 --policies random nothing --merge docs/tasks/rates.json \
         --out docs/tasks/rates.json
 
-the scripted policies on the anatomical abdomen into docs/tasks/rates_anatomical.json:
+the scripted oracles on the anatomical abdomen into docs/tasks/rates_anatomical.json:
 
-    python python/tools/task_rates.py --scene anatomical --policies scripted --out docs/tasks/rates_anatomical.json
+    python python/tools/task_rates.py --scene anatomical --seeds 100 --policies scripted \
+        --out docs/tasks/rates_anatomical.json
 
 and the two clearing tasks there with twice their time limits into docs/tasks/rates_anatomical_long.json:
 
@@ -28,12 +31,13 @@ task, 300 control steps each, every recovery counted) into docs/tasks/random_sta
     python python/tools/task_rates.py --policies random --first-seed 3000 --max-steps 300 \
         --out docs/tasks/random_stability.json
 
-The seeds start at 1000 by default: the policies were tuned on seeds below 200, so these are seeds
-they were not tuned on. Random actions are drawn uniformly in the action spec's bounds at every
+The seeds start at 1000 by default: the policies were tuned on seeds below 200, and the oracles
+also on the box abdomen's seeds 1000 to 1049, so seeds 1050 on are seeds they never saw (each
+rate's `succeeded_seeds` gives both halves). Random actions are drawn uniformly in the action spec's bounds at every
 control step (seeded by the episode's seed); doing nothing holds every tool where the episode
 starts it (in the laparoscope's view).
-With --time-limit-factor F each episode lasts F times its task's time limit (the scripted policies
-plan for the limit they are given): how much of a shortfall is the time, not the gesture.
+With --time-limit-factor F each episode lasts F times its task's time limit (the oracles do not
+read the clock): how much of a shortfall is the time, not the gesture.
 Episodes run in worker processes, one per core.
 """
 
@@ -66,9 +70,9 @@ def episode(task: str, seed: int, policy: str, max_steps: int | None = None, sce
     control steps), `time_limit_factor` times the task's time limit: success, simulated and wall
     seconds, the intestines' recoveries and divergences.
 
-    With `handover_s`, the scripted policy plays the first `handover_s` seconds with Gaussian
+    With `handover_s`, the scripted oracle plays the first `handover_s` seconds with Gaussian
     noise of `handover_noise` times each actuator's range added to every action (drawn from the
-    seed), then a fresh scripted policy, built anew, plays the rest from the state it is handed."""
+    seed), then a fresh oracle, built anew, plays the rest from the state it is handed."""
     options = {} if time_limit_factor == 1.0 else {
         "time_limit": viscera.tasks.base.SUITE[task].TIME_LIMIT_S * time_limit_factor}
     env = viscera.tasks.load(task, seed=seed, scene=scene, **options)

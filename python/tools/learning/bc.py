@@ -30,9 +30,9 @@ docs/learning/policies/TASK_KIND.npz.
   step is the weighted mean of every chunk's prediction for it (temporal ensembling, weights
   exp(-m x age); m < 0 weighs the older predictions more, as ACT does).
 - DAgger (Ross, Gordon and Bagnell, AISTATS 2011), DAGGER_ROUNDS by task: each round runs the
-  learner on seeds after the demonstrations' with a fresh scripted policy alongside, fed the same
-  time steps from the episode's start (the script is a phased planner with memory), and records the
-  script's command as the label of every state the learner reached. Who acts is drawn every
+  learner on seeds after the demonstrations' with the scripted oracle alongside (viscera.tasks.oracle:
+  it decides from the state it is handed alone), and records the oracle's command as the label of
+  every state the learner reached. Who acts is drawn every
   `segment` steps: the script with probability beta, else the learner. The network is then trained
   further on all the frames so far.
 - Training: Adam on one CPU thread; L1 loss (ACT's); pixels shifted by up to 4 pixels at random
@@ -484,7 +484,7 @@ def _dagger_episodes(policy: Cloned, task: str, kind: str, seeds: list[int], bet
     try:
         for seed in seeds:
             observation, info = env.reset(seed=int(seed))
-            expert = viscera.tasks.scripted_policy(env.dm_env)  # fresh: the script remembers its plan
+            expert = viscera.tasks.scripted_policy(env.dm_env)  # the oracle decides from each state alone
             policy.reset()
             states, images, previous, labels = [], [], [], []
             done, steps, scripted = False, 0, False

@@ -8,9 +8,11 @@ and the retractor (left trocar).
   4 x 3 cm patch of the posterior wall; the shipped scene's is 6 x 5) placed where the settled
   bowel covers at least 60 % of it (of 16 draws, the one under the fewest loops).
 - Actions: the tools' position actuators, in their control ranges (rad, m).
-- Observations: tool_joints, tool_forces (N, the force the intestine exerts on each tool),
-  grasper_holding, intestine_axis (axis_samples points, m), target (centre m (3), half sizes m
-  (2)), target_coverage (10 x 10 grid: 1 where the tube lies over the point).
+- Observations: tool_joints, tool_command (the last actuator targets, rad, m), tool_forces (N,
+  the force the intestine exerts on each tool), grasper_holding, intestine_axis (axis_samples
+  points, m), gravity, target (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid: 1
+  where the tube lies over the point), held_abscissa (m along the bowel where the grasper holds
+  it, -1 when it holds nothing).
 - Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success.
   The potential: 1 while the condition holds, else 0.8 x the uncovered fraction over 80 % (at
   most 1) plus 0.2 x the share of the other three conditions that hold (jaws open, tools clear,
@@ -19,8 +21,9 @@ and the retractor (left trocar).
   uncovered, the grasper's jaws open and holding nothing, both tools clear of the target (outside
   it grown by 1 cm, or 5 cm above the wall) and still (every tool joint under 0.3 rad/s or
   0.03 m/s): the loops stay where they were put, not while tools keep stirring them. The episode ends on success, or after 90 s.
-- Scripted policy: the clearing gesture (viscera.tasks.gesture.ClearingGesture). How often it
-  succeeds is measured in docs/tasks/rates.json (python python/tools/task_rates.py).
+- Scripted policy: the clearing gesture (viscera.tasks.gesture.ClearingGesture), an oracle that
+  decides every step from the observation (viscera.tasks.oracle). How often it succeeds is
+  measured in docs/tasks/rates.json (python python/tools/task_rates.py).
 """
 
 from __future__ import annotations

@@ -7,8 +7,9 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
   4 x 3 cm patch of the posterior wall; the shipped scene's is 6 x 5) placed where the settled
   bowel covers at least 60 % of it (of 16 draws, the one under the fewest loops).
 - Actions: the tools' position actuators, in their control ranges (rad, m).
-- Observations: tool_joints, tool_forces, grasper_holding, intestine_axis, gravity, target
-  (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), grasper_tip (m).
+- Observations: tool_joints, tool_command, tool_forces, grasper_holding, intestine_axis, gravity,
+  target (centre m (3), half sizes m (2)), target_coverage (10 x 10 grid), held_abscissa (m
+  along the bowel, -1 for none), grasper_tip (m).
 - Reward (viscera.tasks.reward): the change of the potential, a time cost, a bonus on success.
   The potential: 1 while the condition holds, else 0.5 x the uncovered fraction + 0.5 x
   exp(-tip distance to the target centre / 2 cm).
@@ -18,8 +19,9 @@ on what it uncovered. Tools: the grasper (right trocar) and the retractor (left 
   retractor uncovered, it does not push its way through the loops; a loop resting against its
   shaft is allowed), while the retractor presses on the bowel (its force sensor reads at least
   0.05 N). The episode ends on success, or after 60 s.
-- Scripted policy: viscera.tasks.gesture.RetractReachGesture: the clearing gesture on the working
-  spot, then the retractor presses the laid loop and the grasper reaches.
+- Scripted policy: viscera.tasks.gesture.RetractReachGesture, an oracle (viscera.tasks.oracle):
+  the clearing gesture on the working spot while the retractor presses the loop nearest it, then
+  the grasper reaches, giving way to a loop that presses on it.
 """
 
 from __future__ import annotations
