@@ -94,7 +94,8 @@ class ClearingGesture(GraspPolicy):
         ys = np.arange(region[1, 0], region[1, 1] + 1e-9, DROP_SPACING_M)
         grid = np.array([[x, y] for x in xs for y in ys])
         trocar = self.tools.trocar["grasper"]
-        self.drops = grid[[shaft_within_reach(trocar, np.append(d, LAY_HEIGHT)) for d in grid]]
+        self.grid = grid[[shaft_within_reach(trocar, np.append(d, LAY_HEIGHT)) for d in grid]]
+        self._drops_key, self._drops = None, None
         self.target_margin = 0.04  # m: drops lie outside the target grown by this
         self.plan_points = int(round(self.rest_length / PLAN_SPACING_M))
         self.cycles = 0  # releases seen (informative: no decision reads it)
@@ -198,6 +199,24 @@ class ClearingGesture(GraspPolicy):
         """Which `points` (m, (k, 2)) lie outside the target grown by `target_margin`."""
         return np.any(np.abs(points - centre) > half + self.target_margin, axis=1)
 
+    def drops(self, observation) -> np.ndarray:
+        """The drops (m, (D, 2)): the grid's points where the grasper lowers a loop to LAY_HEIGHT
+        over the wall under the target within its actuators' ranges (kept for the last wall
+        height asked: the same numbers for the same input)."""
+        wall_z = self.target_cells(observation)[3]
+        if self._drops_key != wall_z:
+            self._drops = self.grid[[self.reaches("grasper", np.append(d, wall_z + LAY_HEIGHT)) for d in self.grid]]
+            self._drops_key = wall_z
+        return self._drops
+
+    def highest_reach(self, xy: np.ndarray, wall_z: float) -> float:
+        """The carry height over `xy` (m): `carry_height` above the wall, or lower, in 1 cm steps, where
+        the grasper's working point gets there (a shaft leans more to reach a higher point beside it)."""
+        for height in np.arange(self.carry_height, LAY_HEIGHT - 1e-9, -0.01):
+            if self.reaches("grasper", np.array([xy[0], xy[1], wall_z + height])):
+                return wall_z + float(height)
+        return wall_z + LAY_HEIGHT
+
     def downhill(self, observation) -> np.ndarray:
         """sin(tilt) along the slope, x y: gravity's horizontal part over its size."""
         gravity = np.asarray(observation["gravity"], dtype=float)
@@ -206,8 +225,9 @@ class ClearingGesture(GraspPolicy):
     def drop_for(self, observation, axis, index: int, tip: np.ndarray, cells, centre, half):
         """Where to lay axis point `index`, held at `tip` (m): the best drop by its score less
         `distance_weight` times the tip's distance to it (None: nothing feasible)."""
-        near = (norms(self.drops - tip[:2]) <= self.carry_distances[1] + 0.02) & self.outside(self.drops, centre, half)
-        drops = self.drops[near]
+        grid = self.drops(observation)
+        near = (norms(grid - tip[:2]) <= self.carry_distances[1] + 0.02) & self.outside(grid, centre, half)
+        drops = grid[near]
         if not len(drops):
             return None
         feasible, score = self.carries(axis, index, drops, cells, centre, half)
@@ -254,12 +274,13 @@ class ClearingGesture(GraspPolicy):
             return int(under[np.argmin(norms(axis[under, :2] - tip[:2]))])
         best, choice = -np.inf, None
         downhill = self.downhill(observation)
+        grid = self.drops(observation)
         for index in candidates:
             at = axis[index, :2]
-            distance = norms(self.drops - at)
+            distance = norms(grid - at)
             ring = (distance >= self.carry_distances[0]) & (distance <= self.carry_distances[1]) \
-                & self.outside(self.drops, centre, half)
-            drops = self.drops[ring]
+                & self.outside(grid, centre, half)
+            drops = grid[ring]
             if not len(drops):
                 continue
             feasible, score = self.carries(axis, int(index), drops, cells, centre, half)
@@ -310,17 +331,21 @@ class ClearingGesture(GraspPolicy):
             laid = outside and (tip[2] <= wall_z + LAY_HEIGHT + 0.01 or norm(sent - self.tip(g, goal)) <= SENT_M)
             if now["jaw"] > JAW_SHUT_DEG and command["jaw"] > JAW_CLOSED_DEG + 0.5 and not laid:
                 return "close", dict(command, jaw=JAW_CLOSED_DEG), tip
-            across = norm(sent[:2] - drop)
+            # over the drop at the carry height, or on at the command's height once out of the
+            # target and lower; out of reach, as near over it as the tool goes
+            top = self.highest_reach(drop, wall_z)
+            height = min(sent[2], top) if outside else top
+            carry_aim = np.array([drop[0], drop[1], height])
+            carry_goal = self.over(g, carry_aim, JAW_CLOSED_DEG)
+            across = norm(sent[:2] - self.tip(g, carry_goal)[:2])
             if laid and command["jaw"] > JAW_CLOSED_DEG + 0.5:  # letting go
                 return "release", dict(command, jaw=JAW_OPEN_DEG), lowered
             if across > 0.015:
-                if sent[2] < wall_z + self.carry_height - 0.04 and not outside:  # up first, off the other loops
-                    aim = np.array([sent[0], sent[1], wall_z + self.carry_height])
-                    return "lift", self.at(g, aim, JAW_CLOSED_DEG), aim
-                # at the carry height, or on at the command's height once out of the target and lower
-                height = min(sent[2], wall_z + self.carry_height) if outside else wall_z + self.carry_height
-                aim = np.array([drop[0], drop[1], height])
-                return "carry", self.at(g, aim, JAW_CLOSED_DEG), aim
+                # up first, off the other loops, to the height it is carried at
+                if sent[2] < top - 0.04 and not outside:
+                    aim = np.array([sent[0], sent[1], top])
+                    return "lift", self.over(g, aim, JAW_CLOSED_DEG), aim
+                return "carry", carry_goal, carry_aim
             if not laid:
                 return "lower", goal, lowered
             return "release", dict(goal, jaw=JAW_OPEN_DEG), lowered
