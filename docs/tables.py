@@ -223,11 +223,14 @@ def anatomical_rates() -> str:
     for task, table in data["rates"].items():
         row = table["scripted"]
         steps_per_s = row["median_simulated_s"] / data["control_timestep_s"] / row["median_wall_s_per_episode"]
-        rows.append([f"`{task}`", f"{row['success_rate']:.0%} of {row['episodes']}",
+        seeds = f", seeds {row['seeds'][0]} to {row['seeds'][1]}" if "seeds" in row else ""
+        rows.append([f"`{task}`", f"{row['success_rate']:.0%} of {row['episodes']}{seeds}{_interval(row)}",
                      f"{row['median_wall_s_per_episode']:.1f} s, {row['median_simulated_s']:.1f} s simulated, "
                      f"{steps_per_s:.0f}", _recovered(row)])
+    per_task = all("seeds" in table["scripted"] for table in data["rates"].values())
     seeds = data["seeds"]["scripted"]
-    return _rows(["task", f"scripted policy (seeds {seeds[0]} to {seeds[1]})",
+    return _rows(["task", "scripted policy (episodes, seeds; 95 % interval)" if per_task else
+                  f"scripted policy (seeds {seeds[0]} to {seeds[1]})",
                   "median wall and simulated time per episode, env steps/s", "episodes with a divergence recovery"],
                  rows)
 

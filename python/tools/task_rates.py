@@ -141,7 +141,8 @@ def rates(tasks, seeds, policies=POLICIES, workers: int | None = None, quiet: bo
         for policy in policies:
             mine = [r for r in rows if r["task"] == task and r["policy"] == policy]
             out.setdefault(task, {})[policy] = {
-                "episodes": len(mine), "success_rate": float(np.mean([r["success"] for r in mine])),
+                "episodes": len(mine), "seeds": [min(r["seed"] for r in mine), max(r["seed"] for r in mine)],
+                "success_rate": float(np.mean([r["success"] for r in mine])),
                 "interval_95": wilson_interval(sum(r["success"] for r in mine), len(mine)),
                 "succeeded_seeds": [r["seed"] for r in mine if r["success"]],
                 "median_wall_s_per_episode": float(np.median([r["wall_s"] for r in mine])),
