@@ -69,7 +69,7 @@ def test_a_fresh_oracle_decides_as_the_one_that_played_the_episode(task):
 
 # (task, seed, when the fresh oracle takes over, s): mid-way through each seed's noisy episode,
 # two points for the cheap tasks; seeds where the hand-over succeeds (python/tools/task_rates.py
-# --handover measures the rates over 50 seeds)
+# --handover measures the rates over 100 seeds)
 HANDOVERS = [("grasp_lift", 0, 0.9), ("grasp_lift", 0, 1.8), ("run_the_bowel", 0, 3.0), ("run_the_bowel", 0, 6.0),
              ("retract_reach", 0, 3.3), ("clear_area", 2, 9.36)]
 
