@@ -306,7 +306,7 @@ VSC_EXPORT int viscera_intestine_stability(const mjModel* m, int instance, doubl
   double* initial_q;
   vsc_rod* rod;
   if (create_initial_rod(m, instance, &config, &initial_q, &rod)) return -1;
-  vsc_rod_frequencies(rod, initial_q, &out[0], &out[1]);
+  vsc_rod_frequencies(rod, initial_q, config.step.integrator, &out[0], &out[1]);
   out[2] = vsc_plugin_config_substeps(&config, out[0], out[1], vsc_rod_contact_damping_rate(rod), m->opt.timestep);
   release_initial_rod(&config, initial_q, rod);
   return 0;

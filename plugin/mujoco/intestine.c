@@ -133,7 +133,7 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     return NULL;
   }
   if (it->config.auto_substeps)  // here, not in the first step: about 1-2 ms, which no step should pay
-    vsc_rod_frequencies(it->rod, it->initial_q, &it->elastic_frequency, &it->contact_frequency);
+    vsc_rod_frequencies(it->rod, it->initial_q, it->config.step.integrator, &it->elastic_frequency, &it->contact_frequency);
   return it;
 }
 

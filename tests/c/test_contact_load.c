@@ -87,9 +87,39 @@ static void a_squeezed_pile_is_limited_to_the_bound(void) {
   vsc_rod_destroy(rod);
 }
 
+// The kick schemes' way with the same pile: no damping limited; each control point past the
+// explicit share has its velocity change scaled by 1 / (1 + gamma h - share), gamma h its bound,
+// so the explicit part never passes the share (a kick that never reverses a velocity); points
+// below it, and every point of an ordinary pass, keep 1.
+static void a_squeezed_pile_is_damped_in_the_kick(void) {
+  vsc_rod* rod = rod_of(40, 81);
+  double load[81] = {0.0}, h = 0.001;
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, 0.1 * rod->def.contact_stiffness);
+  ENSURE(vsc_contact_load_kick_damping(rod, h) == 0);  // light contacts everywhere: all explicit
+  for (int s = 0; s < 81; ++s) ENSURE(rod->work.contact_load[s] == 0.0);
+  for (int s = 30; s <= 36; ++s) load[s] = 14.0 * 2.0 * rod->def.contact_stiffness;
+  load[70] = rod->def.contact_stiffness;
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, load[s]);
+  ENSURE(vsc_contact_load_kick_damping(rod, h) == 1);
+  int kicked = 0;
+  for (int k = 0; k < 40; ++k) {
+    double b = bound_at(rod, load, NULL, k, h), factor = rod->work.contact_kick[k];
+    if (b > VSC_CONTACT_DAMPING_EXPLICIT) {
+      ENSURE_NEAR(factor, 1.0 / (1.0 + b - VSC_CONTACT_DAMPING_EXPLICIT), 1e-12);
+      ++kicked;
+    } else {
+      ENSURE(factor == 1.0);
+    }
+  }
+  ENSURE(kicked > 0 && kicked < 40);
+  for (int s = 0; s < 81 + 40; ++s) ENSURE(rod->work.contact_load[s] == 0.0);  // cleared for the next pass
+  vsc_rod_destroy(rod);
+}
+
 int main(void) {
   RUN(unit_is_the_uniform_bound);
   RUN(ordinary_contacts_are_untouched);
   RUN(a_squeezed_pile_is_limited_to_the_bound);
+  RUN(a_squeezed_pile_is_damped_in_the_kick);
   TEST_MAIN_END();
 }

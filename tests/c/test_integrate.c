@@ -7,6 +7,7 @@
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_integrate.h"
 #include "viscera/vsc_layout.h"
+#include "vsc_contact_load.h"
 #include "vsc_contact_lists.h"
 #include "vsc_touch.h"
 #include "viscera/viscera.h"
@@ -127,8 +128,11 @@ static void convergence_orders(void) {
 // it strays no further than over the first (times a margin for the chain's
 // chaotic exchange between modes), and stays within 5 % of the swing's energy.
 // Leapfrog does the same at O(h^2): its error is several times smaller.
-static double largest_swing_energy_error(vsc_integrator integrator) {
+// Writes the largest energy error over the first and the second 50 s, as shares of the swing energy.
+static void swing_energy_errors(vsc_integrator integrator, double global_stretch_stiffness, double* first_out,
+                                double* second_out) {
   vsc_rod_def def = vsc_default_rod_def();
+  def.global_stretch_stiffness = global_stretch_stiffness;
   def.control_count = 40;
   def.length = 1.0;
   def.mass = 0.5;
@@ -161,17 +165,79 @@ static double largest_swing_energy_error(vsc_integrator integrator) {
   }
   printf("  integrator %d: largest energy error / swing energy: first 50 s %.3g, second 50 s %.3g\n", integrator,
          first, second);
-  ENSURE(status == VSC_OK);
-  ENSURE(first > 0.0 && second < 0.05);
-  ENSURE(second < 1.5 * first);
+  ENSURE(status == VSC_OK && first > 0.0);
+  *first_out = first;
+  *second_out = second;
   vsc_rod_destroy(rod);
-  return fmax(first, second);
 }
 
 static void symplectic_energy_stays_bounded(void) {
-  double euler = largest_swing_energy_error(VSC_INTEGRATOR_SYMPLECTIC_EULER);
-  double leapfrog = largest_swing_energy_error(VSC_INTEGRATOR_LEAPFROG);
-  ENSURE(leapfrog < 0.5 * euler);
+  // without the global length term, which their kick takes implicitly (below): bounded, not growing
+  double euler[2], leapfrog[2];
+  swing_energy_errors(VSC_INTEGRATOR_SYMPLECTIC_EULER, 0.0, &euler[0], &euler[1]);
+  swing_energy_errors(VSC_INTEGRATOR_LEAPFROG, 0.0, &leapfrog[0], &leapfrog[1]);
+  ENSURE(euler[1] < 1.5 * euler[0] && leapfrog[1] < 1.5 * leapfrog[0]);
+  ENSURE(euler[1] < 0.15 && leapfrog[1] < 0.5 * euler[1]);
+}
+
+// The kick takes the global length term implicitly, dv <- (M + h^2 K_g g g')^-1 M dv
+// (vsc_schemes.c): g turns with the rod, so the scheme is no longer exactly
+// symplectic and the undamped swing gains energy slowly (measured: 0.017, 0.029,
+// 0.046, 0.058 of the swing energy at 50, 100, 150, 200 s), far below what any
+// damping takes: the default mass damping of 1/s takes 2 of the kinetic energy a
+// second. It must stay that slow: under 1e-3 of the swing energy a second, and
+// within 5 % of it over 100 s.
+static void implicit_length_kick_drifts_slowly(void) {
+  double first, second;
+  swing_energy_errors(VSC_INTEGRATOR_LEAPFROG, 200.0, &first, &second);
+  ENSURE(second < 0.05 && (second - first) / 50.0 < 1e-3);
+}
+
+// A rod whose stiffest mode is the global length term (100 times the default
+// on a light 1 m rod): the stability estimate leaves it out for leapfrog
+// (its springs alone: 6 times lower), and at the substeps that gives leapfrog
+// holds the rod released 0.05 % stretched for 1 s without gaining energy,
+// where RK4, which takes the term explicitly, blows up at those substeps.
+static void implicit_length_kick_is_stable(void) {
+  vsc_rod_def def = vsc_default_rod_def();
+  def.control_count = 60;
+  def.length = 1.0;
+  def.mass = 0.1;
+  def.damping = 0.0;
+  def.self_collision = 0;
+  def.stretch_stiffness = 1.0;
+  def.bend_stiffness = 0.1;
+  def.global_stretch_stiffness = 2e5;
+  vsc_rod* rod = NULL;
+  ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
+  double q0[180], v0[180] = {0}, q[180], v[180];
+  for (int k = 0; k < 60; ++k) {
+    double t = 1.0005 * 1.0 * k / 59.0;  // 0.05 % stretched: the tension geometric stiffness stays small
+    q0[3 * k] = 0.5 * cos(t / 0.5);
+    q0[3 * k + 1] = 0.5 * sin(t / 0.5);
+    q0[3 * k + 2] = 0.0;
+  }
+  double with_length, without, contact;
+  vsc_rod_frequencies(rod, q0, VSC_INTEGRATOR_RK4, &with_length, &contact);
+  vsc_rod_frequencies(rod, q0, VSC_INTEGRATOR_LEAPFROG, &without, &contact);
+  printf("  omega: %.0f rad/s with the length term, %.0f without\n", with_length, without);
+  ENSURE(with_length > 2.0 * without);
+  int substeps = vsc_stable_substeps(VSC_INTEGRATOR_LEAPFROG, without, 0.0, 0.0, 0.002);
+  vsc_world world = {{0, 0, 0}, NULL, 0};
+  memcpy(q, q0, sizeof(q0)); memcpy(v, v0, sizeof(v0));
+  double e0 = total_energy(rod, q, v);
+  vsc_status status = VSC_OK;
+  for (int step = 0; step < 500 && status == VSC_OK; ++step)
+    status = bare_step(rod, &world, q, v, 0.002, VSC_INTEGRATOR_LEAPFROG, substeps);
+  double e1 = total_energy(rod, q, v);
+  printf("  leapfrog at %d substeps per 2 ms: energy %.4g J -> %.4g J over 1 s\n", substeps, e0, e1);
+  ENSURE(status == VSC_OK && e1 < 1.05 * e0);
+  memcpy(q, q0, sizeof(q0)); memcpy(v, v0, sizeof(v0));
+  status = VSC_OK;
+  for (int step = 0; step < 500 && status == VSC_OK; ++step)
+    status = bare_step(rod, &world, q, v, 0.002, VSC_INTEGRATOR_RK4, substeps);
+  ENSURE(status == VSC_ERROR_DIVERGED);
+  vsc_rod_destroy(rod);
 }
 
 // 100 times the stretch stiffness: RK4 at one 2 ms substep diverges at once;
@@ -289,7 +355,7 @@ static void push_out_is_not_a_divergence(void) {
     vsc_rod* rod = NULL;
     ENSURE(vsc_rod_create(&def, &rod) == VSC_OK);
     double elastic, contact;
-    vsc_rod_frequencies(rod, line, &elastic, &contact);
+    vsc_rod_frequencies(rod, line, integrators[which], &elastic, &contact);
     double q[180], v[180] = {0}, stick[8 * 81];
     memcpy(q, line, sizeof(q));
     vsc_stick_clear(stick, 81);
@@ -324,7 +390,9 @@ static void push_out_is_not_a_divergence(void) {
     double ordinary = VSC_DEEP_CONTACT * def.radius, sphere_mass = def.mass / def.collision_sphere_count;
     double bound = sqrt(VSC_PUSH_OUT_SPEED * VSC_PUSH_OUT_SPEED + def.contact_stiffness * ordinary * ordinary / sphere_mass);
     ENSURE(mean_speed > 0.5 * VSC_PUSH_OUT_SPEED && mean_speed < bound);
-    ENSURE(fastest < 1.5 * bound);  // control points, not spheres: the ends ring for a few ms
+    // control points, not spheres: the ends ring for a few ms (at the 2 and 3 leapfrog substeps the
+    // estimate gives since the kick takes the pile's damping implicitly, up to 1.7 times the bound)
+    ENSURE(fastest < 2.0 * bound);
     vsc_rod_destroy(rod);
   }
 }
@@ -335,24 +403,27 @@ static void push_out_is_not_a_divergence(void) {
 static void stable_substeps_hold(void) {
   double q0[750], v0[750], q[750], v[750];
   vsc_rod* rod = released(q0, v0);
-  double elastic, contact;
-  vsc_rod_frequencies(rod, q0, &elastic, &contact);
-  printf("  omega: elastic %.0f rad/s, contact %.0f rad/s\n", elastic, contact);
+  double elastic, contact, kicked;
+  vsc_rod_frequencies(rod, q0, VSC_INTEGRATOR_LEAPFROG, &kicked, &contact);  // the global length term implicit
+  vsc_rod_frequencies(rod, q0, VSC_INTEGRATOR_RK4, &elastic, &contact);
+  printf("  omega: elastic %.0f rad/s (%.0f without the global length term), contact %.0f rad/s\n", elastic, kicked,
+         contact);
   ENSURE(elastic > 1800.0 && elastic < 2200.0);  // RK4's measured limit 1.45 ms = 2.83 / 1950 rad/s
   double gamma = rod->contact_damping_rate;  // set by vsc_rod_frequencies: c omega_contact^2 / k
   ENSURE(fabs(gamma - rod->def.contact_damping * contact * contact / rod->def.contact_stiffness) <= 1e-9 * gamma);
   int substeps = vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 0.005);
   ENSURE(substeps == (int)ceil(0.005 * elastic / VSC_RK4_TRUSTED_OMEGA_H));
   ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 0.002) == 2);
-  int euler = vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, 0.0, 0.005);
-  ENSURE(euler == (int)ceil(0.005 * elastic / VSC_EULER_TRUSTED_OMEGA_H) && euler > substeps);
+  int euler = vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, kicked, contact, 0.0, 0.005);
+  ENSURE(euler == (int)ceil(0.005 * kicked / VSC_EULER_TRUSTED_OMEGA_H) && euler > substeps);
   // damping only ever asks for more; leapfrog's limit is symplectic Euler's
-  int damped = vsc_stable_substeps(VSC_INTEGRATOR_LEAPFROG, elastic, contact, gamma, 0.005);
-  ENSURE(damped >= euler && damped == vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, elastic, contact, gamma, 0.005));
+  int damped = vsc_stable_substeps(VSC_INTEGRATOR_LEAPFROG, kicked, contact, gamma, 0.005);
+  ENSURE(damped >= euler && damped == vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, kicked, contact, gamma, 0.005));
   double trusted2 = VSC_EULER_TRUSTED_OMEGA_H * VSC_EULER_TRUSTED_OMEGA_H;
   double hd = 0.005 / damped, hb = 0.005 / (damped - 1);  // the damped bound holds at the count chosen, not one below
-  ENSURE(elastic * elastic * hd * hd + 2.0 * gamma * hd <= trusted2);
-  ENSURE(damped == 1 || elastic * elastic * hb * hb + 2.0 * gamma * hb > trusted2);
+  // the kick takes gamma h past VSC_CONTACT_DAMPING_EXPLICIT implicitly: only that share counts
+  ENSURE(kicked * kicked * hd * hd + 2.0 * fmin(gamma * hd, VSC_CONTACT_DAMPING_EXPLICIT) <= trusted2);
+  ENSURE(damped == 1 || kicked * kicked * hb * hb + 2.0 * fmin(gamma * hb, VSC_CONTACT_DAMPING_EXPLICIT) > trusted2);
   ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_IMPLICIT, elastic, contact, gamma, 0.005) < substeps);
   ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 1e-6) == 1);
   vsc_world world = {{0, 0, 0}, NULL, 0};
@@ -375,6 +446,8 @@ int main(void) {
   RUN(energy_is_conserved);
   RUN(convergence_orders);
   RUN(symplectic_energy_stays_bounded);
+  RUN(implicit_length_kick_drifts_slowly);
+  RUN(implicit_length_kick_is_stable);
   RUN(implicit_is_stable_where_rk4_is_not);
   RUN(retry_recovers_with_more_substeps);
   RUN(energy_jump_is_caught);

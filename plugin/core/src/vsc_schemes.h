@@ -16,6 +16,7 @@ typedef struct vsc_scheme {
   vsc_substep_function substep;
   double trusted_omega_h;       ///< largest omega h vsc_stable_substeps trusts
   int explicit_damping;         ///< 1: damping applied explicitly shrinks its stable substep
+  int length_implicit;          ///< 1: the global length term never limits its substep
   int elastic_implicit;         ///< 1: only the contact frequency limits its substep
   double phase_coefficient;     ///< c in its relative error c (omega h)^p on an oscillation
   int phase_order;              ///< p
@@ -24,7 +25,7 @@ typedef struct vsc_scheme {
 /// The integrators, indexed by vsc_integrator.
 extern const vsc_scheme vsc_schemes[VSC_INTEGRATOR_COUNT];
 
-#define VSC_SUBSTEP_DECLARE_(id, name, substep, trusted, explicit_damping, elastic_implicit, phase_c, phase_p) \
+#define VSC_SUBSTEP_DECLARE_(id, name, substep, trusted, explicit_damping, length_implicit, elastic_implicit, phase_c, phase_p) \
   vsc_status substep(vsc_step_context* context, double* q, double* v, double h);
 VSC_INTEGRATORS(VSC_SUBSTEP_DECLARE_)
 #undef VSC_SUBSTEP_DECLARE_

@@ -7,6 +7,7 @@
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_jacobian.h"
+#include "vsc_contact_load.h"
 #include "vsc_schemes.h"
 
 // y = K x for the frequency estimate: with `contact` = 0, the band part of the
@@ -73,14 +74,15 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
   return lambda;
 }
 
-void vsc_rod_frequencies(vsc_rod* rod, const double* q, double* elastic, double* contact) {
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, vsc_integrator integrator, double* elastic, double* contact) {
   int size = 3 * rod->n;
   vsc_world world = {{0, 0, 0}, NULL, 0};
   double* gradient = rod->work.stage;
   memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
   vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->work.system, gradient);
-  for (int k = 0; k < rod->n; ++k)
-    if (rod->is_pinned[k]) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
+  int length_implicit = (unsigned)integrator < VSC_INTEGRATOR_COUNT && vsc_schemes[integrator].length_implicit;
+  for (int k = 0; k < rod->n; ++k)  // a scheme that kicks the global length term implicitly does not see its mode
+    if (rod->is_pinned[k] || length_implicit) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
   *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));
   memset(gradient, 0, sizeof(double) * (size_t)size);  // contact alone: no global term either
   // a self-contact presses two spheres apart: twice the stiffness on their relative motion
@@ -113,11 +115,12 @@ int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contac
   if (substeps < 1.0) substeps = 1.0;
   double gamma = contact_damping_rate > 0.0 && isfinite(contact_damping_rate) ? contact_damping_rate : 0.0;
   // the stiffest elastic mode and the stiffest damped contact mode are taken as one: a bound, as the
-  // cavity's piled loops, pressed by a tool, come near it (at abdomen.xml's 3 substeps they diverge)
-  if (scheme->explicit_damping && gamma > 0.0)  // omega^2 h^2 + 2 gamma h <= trusted^2
+  // cavity's piled loops, pressed by a tool, come near it (at abdomen.xml's 3 substeps they diverge).
+  // The kick takes the damping past gamma h = VSC_CONTACT_DAMPING_EXPLICIT implicitly: only that share counts.
+  if (scheme->explicit_damping && gamma > 0.0)  // omega^2 h^2 + 2 min(gamma h, explicit share) <= trusted^2
     for (; substeps < VSC_MAX_AUTO_SUBSTEPS; substeps += 1.0) {
-      double hs = dt / substeps;
-      if (omega * omega * hs * hs + 2.0 * gamma * hs <= trusted * trusted) break;
+      double hs = dt / substeps, damped = gamma * hs < VSC_CONTACT_DAMPING_EXPLICIT ? gamma * hs : VSC_CONTACT_DAMPING_EXPLICIT;
+      if (omega * omega * hs * hs + 2.0 * damped <= trusted * trusted) break;
     }
   return substeps > VSC_MAX_AUTO_SUBSTEPS ? VSC_MAX_AUTO_SUBSTEPS : (int)substeps;
 }

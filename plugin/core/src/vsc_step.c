@@ -110,7 +110,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reaction
 static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
                        double* stick, double* rest, double dt, const vsc_step_options* options,
                        vsc_step_report* report) {
-  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0};
+  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, 0};
   clear_reactions(&context);  // overwritten whatever the step does, even refused
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||

@@ -16,7 +16,8 @@
 #define VSC_EULER_TRUSTED_OMEGA_H 1.8
 
 /// The integrators, one row each: X(ID, name, substep function, trusted omega h,
-/// explicit damping, elastic forces implicit, phase coefficient, phase order).
+/// explicit damping, global length term implicit, elastic forces implicit,
+/// phase coefficient, phase order).
 /// This table is the only list:
 /// the enum below, the names the plugin's `integrator` key accepts
 /// (vsc_integrator_names) and the scheme table the step, the stability
@@ -26,6 +27,8 @@
 /// properties are documented at its function.
 ///   explicit damping: the scheme applies damping explicitly, which shrinks its
 ///     stable substep (omega^2 h^2 + 2 gamma h within the trusted bound's square);
+///   length implicit: the global length term (a rank-one stiffness, often the
+///     rod's stiffest mode) never limits its substep: the kick takes it implicitly;
 ///   elastic implicit: the elastic forces and the rigid contacts' normal springs
 ///     never limit its substep (only the explicit self-contacts and friction do);
 ///   phase coefficient c, order p: an undamped oscillation of frequency omega
@@ -33,12 +36,12 @@
 ///     (omega h)^4 / 120, leapfrog's and symplectic Euler's (omega h)^2 / 24;
 ///     linearly implicit Euler loses pi omega h of its amplitude a period.
 #define VSC_INTEGRATORS(X)                                                                  \
-  X(RK4, "rk4", vsc_rk4_substep, VSC_RK4_TRUSTED_OMEGA_H, 0, 0, 1.0 / 120.0, 4)              \
-  X(SYMPLECTIC_EULER, "symplectic_euler", vsc_symplectic_euler_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 0, 1.0 / 24.0, 2) \
-  X(IMPLICIT, "implicit", vsc_implicit_substep, VSC_EULER_TRUSTED_OMEGA_H, 0, 1, VSC_PI, 1) \
-  X(LEAPFROG, "leapfrog", vsc_leapfrog_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 0, 1.0 / 24.0, 2)
+  X(RK4, "rk4", vsc_rk4_substep, VSC_RK4_TRUSTED_OMEGA_H, 0, 0, 0, 1.0 / 120.0, 4)              \
+  X(SYMPLECTIC_EULER, "symplectic_euler", vsc_symplectic_euler_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 1, 0, 1.0 / 24.0, 2) \
+  X(IMPLICIT, "implicit", vsc_implicit_substep, VSC_EULER_TRUSTED_OMEGA_H, 0, 1, 1, VSC_PI, 1) \
+  X(LEAPFROG, "leapfrog", vsc_leapfrog_substep, VSC_EULER_TRUSTED_OMEGA_H, 1, 1, 0, 1.0 / 24.0, 2)
 
-#define VSC_INTEGRATOR_ENUM_(id, name, substep, trusted, explicit_damping, elastic_implicit, phase_c, phase_p) \
+#define VSC_INTEGRATOR_ENUM_(id, name, substep, trusted, explicit_damping, length_implicit, elastic_implicit, phase_c, phase_p) \
   VSC_INTEGRATOR_##id,
 /// Integrators selectable by name, in table order (RK4 = 0, ..., LEAPFROG = 3).
 typedef enum vsc_integrator { VSC_INTEGRATORS(VSC_INTEGRATOR_ENUM_) VSC_INTEGRATOR_COUNT } vsc_integrator;
