@@ -43,6 +43,7 @@ typedef struct intestine {
   double contact_frequency;  // computed at creation when the substeps come from the timestep
   double substeps_timestep;  // the timestep (s) `substeps` was chosen for (0: none yet)
   int substeps;              // substeps per step at that timestep
+  double damping_limit;      // the bound on a pile's gamma h at those substeps (vsc_stable_damping_limit)
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
   // contacts with the other intestine instances (partners.h): this one computes those with the
   // higher instances and hands them loads through its own `handed`, which they read; the lower
@@ -429,16 +430,23 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
 }
 
 // Substeps per step: the config's, or else the fewest the rod's stability
-// estimate allows at the model's timestep, chosen again only when the timestep
-// changes. The estimate is taken at the initial shape, from the model alone, so
-// every copy of a data chooses alike.
-static int step_substeps(const mjModel* m, intestine* it) {
+// estimate allows at the model's timestep, and the pile's damping limit those
+// substeps count on (given substeps keep the whole damping), chosen again only
+// when the timestep changes. The estimate is taken at the initial shape, from
+// the model alone, so every copy of a data chooses alike.
+static void choose_substeps(const mjModel* m, intestine* it, vsc_step_options* step) {
   if (it->substeps_timestep != m->opt.timestep) {
-    it->substeps = vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency,
-                                              vsc_rod_contact_damping_rate(it->rod), m->opt.timestep);
+    double rate = vsc_rod_contact_damping_rate(it->rod);
+    it->substeps = vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency, rate,
+                                              m->opt.timestep);
+    it->damping_limit = it->config.auto_substeps ? vsc_stable_damping_limit(it->config.step.integrator,
+                                                                            it->elastic_frequency, it->contact_frequency,
+                                                                            rate, m->opt.timestep, it->substeps)
+                                                 : it->config.step.damping_limit;
     it->substeps_timestep = m->opt.timestep;
   }
-  return it->substeps;
+  step->substeps = it->substeps;
+  step->damping_limit = it->damping_limit;
 }
 
 // A state that is not finite anywhere (a bad mj_setState, say) starts over
@@ -754,7 +762,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   vsc_reactions reactions;
   vsc_world world = gather(m, d, it, state, instance, &reactions);
   vsc_step_options step = it->config.step;
-  step.substeps = step_substeps(m, it);
+  choose_substeps(m, it, &step);
   vsc_step_report report = {0, 0};
   vsc_status status = vsc_rod_step(it->rod, &world, &reactions, state + l.offset[VSC_STATE_POSITIONS],
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],

@@ -391,7 +391,7 @@ static void push_out_is_not_a_divergence(void) {
     double bound = sqrt(VSC_PUSH_OUT_SPEED * VSC_PUSH_OUT_SPEED + def.contact_stiffness * ordinary * ordinary / sphere_mass);
     ENSURE(mean_speed > 0.5 * VSC_PUSH_OUT_SPEED && mean_speed < bound);
     // control points, not spheres: the ends ring for a few ms (at the 2 and 3 leapfrog substeps the
-    // estimate gives since the kick takes the pile's damping implicitly, up to 1.7 times the bound)
+    // estimate gives since it counts the damping only up to the kick's limit, up to 1.7 times the bound)
     ENSURE(fastest < 2.0 * bound);
     vsc_rod_destroy(rod);
   }
@@ -421,9 +421,9 @@ static void stable_substeps_hold(void) {
   ENSURE(damped >= euler && damped == vsc_stable_substeps(VSC_INTEGRATOR_SYMPLECTIC_EULER, kicked, contact, gamma, 0.005));
   double trusted2 = VSC_EULER_TRUSTED_OMEGA_H * VSC_EULER_TRUSTED_OMEGA_H;
   double hd = 0.005 / damped, hb = 0.005 / (damped - 1);  // the damped bound holds at the count chosen, not one below
-  // the kick takes gamma h past VSC_CONTACT_DAMPING_EXPLICIT implicitly: only that share counts
-  ENSURE(kicked * kicked * hd * hd + 2.0 * fmin(gamma * hd, VSC_CONTACT_DAMPING_EXPLICIT) <= trusted2);
-  ENSURE(damped == 1 || kicked * kicked * hb * hb + 2.0 * fmin(gamma * hb, VSC_CONTACT_DAMPING_EXPLICIT) > trusted2);
+  // the kick schemes' contact pass limits gamma h to VSC_KICK_DAMPING_LIMIT: no more than that counts
+  ENSURE(kicked * kicked * hd * hd + 2.0 * fmin(gamma * hd, VSC_KICK_DAMPING_LIMIT) <= trusted2);
+  ENSURE(damped == 1 || kicked * kicked * hb * hb + 2.0 * fmin(gamma * hb, VSC_KICK_DAMPING_LIMIT) > trusted2);
   ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_IMPLICIT, elastic, contact, gamma, 0.005) < substeps);
   ENSURE(vsc_stable_substeps(VSC_INTEGRATOR_RK4, elastic, contact, gamma, 1e-6) == 1);
   vsc_world world = {{0, 0, 0}, NULL, 0};

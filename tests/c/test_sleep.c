@@ -293,11 +293,13 @@ static double sag_into_a_gap(int sleep, double* q_out) {
 }
 
 // The middle comes down to the floor as it does awake, and the sleeping
-// sides, woken by the change in their forces, slide inward most of the way
-// they slide awake (without the forces' watch they stay put). Where the ends
-// stop is chaotic, creep falling below the rest speed on frictionless blocks:
-// awake, an end's stop moves by up to 15 cm between 4, 8, 16 and 32 substeps,
-// so the test compares how far each side slid, not where each point ends.
+// sides, woken by the change in their forces, slide inward as they do awake
+// (never woken, they would stay where they fell asleep, at the rod's ends).
+// Where the ends stop is chaotic, creep falling below the rest speed on
+// frictionless blocks: awake, an end's stop moves by up to 15 cm between 4, 8,
+// 16 and 32 substeps, and from one build to the next (0.36 to 0.54 m of slide
+// for the same end), so the test asks that each side slid at least half as far
+// as it does awake, not that each point ends where it does awake.
 static void sleeping_sides_feel_a_loop_sag_between_them(void) {
   double q[3 * N], q_awake[3 * N];
   double sleeping = sag_into_a_gap(1, q), awake = sag_into_a_gap(0, q_awake);
@@ -306,7 +308,7 @@ static void sleeping_sides_feel_a_loop_sag_between_them(void) {
   double slid[2] = {q[0], LENGTH - q[3 * (N - 1)]}, slid_awake[2] = {q_awake[0], LENGTH - q_awake[3 * (N - 1)]};
   for (int end = 0; end < 2; ++end) {
     printf("  end %d slid %.3f m asleep, %.3f m awake\n", end, slid[end], slid_awake[end]);
-    ENSURE(slid_awake[end] > 0.2 && slid[end] > 0.7 * slid_awake[end]);
+    ENSURE(slid_awake[end] > 0.2 && slid[end] > 0.5 * slid_awake[end]);
   }
 }
 

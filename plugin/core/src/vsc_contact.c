@@ -372,11 +372,8 @@ int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
   vsc_touch_clear(rod);
   rod->work.found_count = 0;
   find_contacts(&p);
-  // in a step, the damping past its explicit share taken in the kick, or limited where it adds up past
-  // its explicit limit (neither in a lone evaluation)
-  if (context->damping_in_kick)
-    rod->work.contact_kicked = vsc_contact_load_kick_damping(rod, context->substep);
-  else if (vsc_contact_load_limit_damping(rod, context->substep))
+  // in a step, the damping limited where it adds up past its explicit limit (none in a lone evaluation)
+  if (vsc_contact_load_limit_damping(rod, context->substep, context->damping_limit))
     p.damping_scale = rod->work.damping_scale;
   const found_contact* found = (const found_contact*)rod->work.found;
   for (int k = 0; k < rod->work.found_count; ++k) push(&p, &found[k]);

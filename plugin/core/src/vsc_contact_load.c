@@ -43,40 +43,7 @@ void vsc_contact_load_prepare(vsc_rod* rod) {
   rod->work.contact_load_bound = 0.0;
 }
 
-// The per-sphere loads' largest bound on gamma h per unit of `per_load` (s/kg x N/m), from the
-// most loaded sphere: a bound of the bound, so that below a limit the rows need not be summed.
-static double bound_of_bound(const vsc_rod* rod) {
-  const double* load = rod->work.contact_load;
-  double most = 0.0;
-  for (int s = 0; s < rod->def.collision_sphere_count; ++s) most = load[s] > most ? load[s] : most;
-  return most * rod->contact_load_unit;
-}
-
-int vsc_contact_load_kick_damping(vsc_rod* rod, double h) {
-  int n = rod->n, spheres = rod->def.collision_sphere_count;
-  double* load = rod->work.contact_load;
-  double* row = load + spheres;
-  const double* inverse_mass = row + n;
-  double per_load = rod->def.contact_damping / rod->def.contact_stiffness * h;  // gamma h per unit of load
-  rod->work.contact_load_bound = 0.0;
-  double most = bound_of_bound(rod);
-  if (!(per_load * most > VSC_CONTACT_DAMPING_EXPLICIT)) {
-    if (most > 0.0) memset(load, 0, sizeof(double) * (size_t)spheres);
-    return 0;
-  }
-  add_rows(rod, load, row);
-  double peak = 0.0;
-  for (int k = 0; k < n; ++k) {
-    double bound = row[k] * per_load * inverse_mass[k];  // gamma h at control point k
-    peak = bound > peak ? bound : peak;
-    rod->work.contact_kick[k] = bound > VSC_CONTACT_DAMPING_EXPLICIT ? 1.0 / (1.0 + bound - VSC_CONTACT_DAMPING_EXPLICIT) : 1.0;
-  }
-  rod->work.contact_load_bound = peak;
-  memset(load, 0, sizeof(double) * (size_t)(spheres + n));
-  return peak > VSC_CONTACT_DAMPING_EXPLICIT;
-}
-
-int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
+int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit) {
   int n = rod->n, spheres = rod->def.collision_sphere_count;
   double* load = rod->work.contact_load;
   double* row = load + spheres;
@@ -86,8 +53,9 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
   rod->work.contact_load_bound = 0.0;
   // first a bound of the bound, from the most loaded sphere: below the limit, the
   // ordinary case, nothing is limited and the rows need not be summed
-  double most = bound_of_bound(rod);
-  if (!(per_load * most > VSC_CONTACT_DAMPING_LIMIT)) {
+  double most = 0.0;
+  for (int s = 0; s < spheres; ++s) most = load[s] > most ? load[s] : most;
+  if (!(per_load * most * rod->contact_load_unit > limit)) {
     if (most > 0.0) memset(load, 0, sizeof(double) * (size_t)spheres);
     return 0;
   }
@@ -98,14 +66,14 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h) {
     peak = row[k] > peak ? row[k] : peak;
   }
   rod->work.contact_load_bound = peak;
-  int limited = peak > VSC_CONTACT_DAMPING_LIMIT;
+  int limited = peak > limit;
   for (int s = 0; s < spheres && limited; ++s) {
     double scale = 1.0;
     const vsc_basis* b = &rod->sphere_basis[s];
     for (int j = 0; j < VSC_SPLINE_SUPPORT; ++j) {
       double bound = row[b->first + j];
-      if (bound > VSC_CONTACT_DAMPING_LIMIT && VSC_CONTACT_DAMPING_LIMIT / bound < scale)
-        scale = VSC_CONTACT_DAMPING_LIMIT / bound;
+      if (bound > limit && limit / bound < scale)
+        scale = limit / bound;
     }
     rod->work.damping_scale[s] = scale;
   }

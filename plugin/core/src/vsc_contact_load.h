@@ -12,33 +12,27 @@
 // randomised cavity episodes: a storm of divergence recoveries). So each
 // contact pass bounds gamma h at every control point (Gershgorin's bound of
 // the damping matrix c J' J, over the lumped mass) after finding its contacts
-// and before pushing them; where the bound exceeds VSC_CONTACT_DAMPING_LIMIT
-// the damping of the contacts there is scaled down to the limit. Contacts below
+// and before pushing them; where the bound exceeds the scheme's limit the
+// damping of the contacts there is scaled down to the limit. Contacts below
 // it (a tube on a plane, any pile below the bound) are untouched, bit for bit.
 //
-// The kick schemes (leapfrog, symplectic Euler) need no such limit: each
-// control point takes its contacts' damping explicitly up to gamma h =
-// VSC_CONTACT_DAMPING_EXPLICIT and the rest implicitly, dv_k <- dv_k / (1 +
-// gamma h - VSC_CONTACT_DAMPING_EXPLICIT) with gamma h the same bound. The
-// damping keeps its full strength (a pile settles), no kick reverses a
-// velocity, and the explicit share enters the stability estimate
-// (vsc_stable_substeps): at a 1 ms step the anatomical small bowel's contacts
-// (1122 rad/s, gamma h 1.26) then take one substep, not two.
+// The schemes that apply damping explicitly (leapfrog, symplectic Euler) keep
+// to the step's damping_limit: 2, or VSC_KICK_DAMPING_LIMIT where the stability
+// estimate counted on it (vsc_stable_damping_limit): below 1, an explicit kick
+// never reverses a velocity by its damping, and at a 1 ms step the anatomical
+// small bowel's contacts (1122 rad/s, gamma h 1.26 for one contact per sphere)
+// then take one substep, where they took two. Tried instead: the damping past
+// gamma h 0.5 taken implicitly in the kick, point by point (dv_k / (1 + gamma h
+// - 0.5)). That keeps a pile's damping whole, but it scales the point's whole
+// response, its contacts' push too, and as contacts come and go each step it
+// pumped a swept pile into a lasting churn at metres a second (the anatomical
+// sweep's 8 s, then 5 s of rest: nothing slept; with the limit, all of it
+// within 4 s).
 #ifndef VISCERA_SRC_VSC_CONTACT_LOAD_H
 #define VISCERA_SRC_VSC_CONTACT_LOAD_H
 
+#include "viscera/vsc_integrate.h"
 #include "vsc_rod.h"
-
-/// The bound on gamma h (dimensionless) a contact pass keeps to: the explicit
-/// limit itself, as the bound is an upper one (no margin needed).
-#define VSC_CONTACT_DAMPING_LIMIT 2.0
-
-/// The share of gamma h (dimensionless) a kick takes explicitly; past it, implicitly.
-/// Below 1, so that the explicit share never reverses a velocity, and low enough
-/// that a pile's damping settles it within a step or two (measured: after the
-/// anatomical sweep 76-90 % of the small bowel sleeps within 5 s at 0.5, 73-84 %
-/// with the damping limited to 0.9 instead).
-#define VSC_CONTACT_DAMPING_EXPLICIT 0.5
 
 /// Set rod->contact_load_unit: the largest Gershgorin row of B' B over the
 /// lumped mass (1/kg, B the spheres' basis rows), the bound one unit of
@@ -54,18 +48,13 @@ static inline void vsc_contact_load_add(vsc_rod* rod, int sphere, double stiffne
 }
 
 /// After a contact pass at substep h (s): 1 if its damping bound exceeds
-/// VSC_CONTACT_DAMPING_LIMIT somewhere; then rod->work.damping_scale holds, per
+/// `limit` (gamma h, the scheme's: VSC_CONTACT_DAMPING_LIMIT or
+/// VSC_KICK_DAMPING_LIMIT) somewhere; then rod->work.damping_scale holds, per
 /// sphere, the factor (<= 1) on its contacts' damping. 0 otherwise. Clears the
 /// load either way. O(spheres): below the limit, one pass for the most loaded sphere.
-int vsc_contact_load_limit_damping(vsc_rod* rod, double h);
+int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit);
 
-/// After a contact pass at substep h (s) of a kick scheme: 1 if its damping bound
-/// exceeds VSC_CONTACT_DAMPING_EXPLICIT somewhere; then rod->work.contact_kick
-/// holds, per control point, the factor (<= 1) on its velocity change in the
-/// kick (vsc_schemes.c). 0 otherwise. Clears the load either way.
-int vsc_contact_load_kick_damping(vsc_rod* rod, double h);
-
-/// The last pass's largest bound on gamma h (for tests and tools).
+/// The last vsc_contact_load_limit_damping's largest bound on gamma h (for tests and tools).
 double vsc_contact_load_last_bound(const vsc_rod* rod);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_LOAD_H

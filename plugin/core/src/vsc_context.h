@@ -20,8 +20,8 @@ typedef struct vsc_step_context {
                            ///< evaluation read v, or NULL (vsc_friction.h's vsc_rod_update_stick)
   double substep;          ///< the current substep's length h (s), which the contacts' explicit damping
                            ///< must keep stable (vsc_contact_load.h); 0 in a lone evaluation: no limit
-  int damping_in_kick;     ///< 1: the substep's kick takes the contact damping past its explicit share
-                           ///< implicitly (leapfrog, symplectic Euler); 0: the contact pass limits it
+  double damping_limit;    ///< the bound on a pile's gamma h the contact pass keeps to: the
+                           ///< scheme's (vsc_contact_load.h)
 } vsc_step_context;
 
 /// The reactions of a caller that wants none: every member NULL, nothing written.

@@ -8,6 +8,7 @@
 #include "viscera/vsc_sleep.h"
 #include "vsc_contact.h"
 #include "vsc_elastic.h"
+#include "vsc_contact_load.h"
 #include "vsc_grasp.h"
 #include "vsc_place.h"
 
@@ -18,7 +19,6 @@ void vsc_forces_evaluate(const vsc_step_context* context, const double* q, const
   // place: every later stage reads the samples or the spheres
   rod->work.touched = world->geom_count > 0 || rod->def.self_collision;
   if (!rod->work.touched) rod->work.found_count = 0;  // no contact found: none for sleeping to read
-  rod->work.contact_kicked = 0;
   vsc_rod_update_samples(rod, q);
   if (rod->work.touched) vsc_rod_update_spheres(rod, q, v);
   for (int k = 0; k < n; ++k) {  // gravity, distributed exactly: Q_k = g sum_j M_kj
@@ -81,7 +81,8 @@ const vsc_reactions vsc_no_reactions = {NULL, NULL};
 
 // A lone evaluation: no friction state, reactions at full weight.
 static vsc_step_context lone(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions) {
-  vsc_step_context context = {rod, world, reactions ? reactions : &vsc_no_reactions, NULL, 1.0, 1.0, NULL, 0.0, 0};
+  vsc_step_context context = {rod, world, reactions ? reactions : &vsc_no_reactions, NULL, 1.0, 1.0, NULL, 0.0,
+                               VSC_CONTACT_DAMPING_LIMIT};
   return context;
 }
 

@@ -235,7 +235,7 @@ enum {
   ARRAY_FACTOR_ROW,      // half width + 1
   ARRAY_BACKUP,          // q, v (3n each), the friction state, then energy_state (6n)
   ARRAY_TOUCH,           // VSC_TOUCH_SIZE per sphere
-  ARRAY_CONTACT_LOAD,    // 1 per sphere, then 3n
+  ARRAY_CONTACT_LOAD,    // 1 per sphere, then 2n
   ARRAY_DAMPING_SCALE,   // 1 per sphere
   ARRAY_GATHER_FIRST,    // 3n ints: gather_first, gather_count, gather_offset
   ARRAY_PINNED,          // pinned indices (at least 1)
@@ -270,7 +270,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_FACTOR_ROW] = (half_width + 1.0) * d;
   bytes[ARRAY_BACKUP] = (12.0 * n + VSC_STICK_SIZE * spheres) * d;
   bytes[ARRAY_TOUCH] = VSC_TOUCH_SIZE * spheres * d;
-  bytes[ARRAY_CONTACT_LOAD] = (spheres + 3.0 * n) * d;
+  bytes[ARRAY_CONTACT_LOAD] = (spheres + 2.0 * n) * d;
   bytes[ARRAY_DAMPING_SCALE] = spheres * d;
   bytes[ARRAY_GATHER_FIRST] = 3.0 * n * sizeof(int);
   bytes[ARRAY_PINNED] = (def->pinned_count > 0 ? def->pinned_count : 1) * sizeof(int);
@@ -328,7 +328,6 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->work.touch = (double*)AT(ARRAY_TOUCH);
   rod->work.contact_load = (double*)AT(ARRAY_CONTACT_LOAD);
   rod->work.damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
-  rod->work.contact_kick = rod->work.contact_load + def->collision_sphere_count + 2 * def->control_count;
   rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
   rod->pinned = (int*)AT(ARRAY_PINNED);
   rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);

@@ -45,17 +45,13 @@ typedef struct vsc_rod_work {
   int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
   double* contact_load;      ///< per sphere, the contact pass's stiffness (N/m), then per control point
                              ///< its Gershgorin row (n), both zero between passes, then the inverse
-                             ///< lumped masses (n, 1/kg; 0 where pinned; set at creation), then
-                             ///< contact_kick (n) (vsc_contact_load.h)
+                             ///< lumped masses (n, 1/kg; 0 where pinned; set at creation) (vsc_contact_load.h)
   double* damping_scale;     ///< per sphere, the factor (<= 1) on its contacts' damping in a limited pass
   void* found;               ///< the contacts the pass found, before their forces (vsc_contact.c; own
                              ///< allocation, grown as needed)
   int found_count;           ///< contacts in `found`
   int found_capacity;        ///< contacts `found` holds
   double contact_load_bound; ///< the last pass's largest bound on gamma h (vsc_contact_load.h)
-  double* contact_kick;      ///< per control point, the factor (<= 1) on its velocity change in a kick
-                             ///< where its contact damping passed its explicit share (vsc_contact_load.h)
-  int contact_kicked;        ///< 1: the last evaluation's contact pass set contact_kick
   // the step
   double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state,
                              ///< then energy_state

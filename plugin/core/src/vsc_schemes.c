@@ -12,6 +12,7 @@
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_jacobian.h"
+#include "vsc_contact_load.h"
 #include "vsc_elastic.h"
 #include "vsc_forces.h"
 #include "vsc_touch.h"
@@ -125,15 +126,10 @@ static vsc_status drift_kick_drift(vsc_step_context* context, double* q, double*
   if (before > 0.0)
     for (int i = 0; i < size; ++i) q[i] += first * v[i];
   context->wrench_weight = h / context->dt;
-  context->damping_in_kick = 1;
   vsc_forces_acceleration(context, q, v, a);
-  context->damping_in_kick = 0;
   double exact = exact_damping_correction(rod, h);
   for (int i = 0; i < size; ++i) a[i] = h * a[i] + exact * v[i];  // now the velocity change
   implicit_length_kick(rod, h, a);
-  if (rod->work.contact_kicked)  // the contact damping past its explicit share, implicitly (vsc_contact_load.h)
-    for (int k = 0; k < rod->n; ++k)
-      for (int c = 0; c < 3; ++c) a[3 * k + c] *= rod->work.contact_kick[k];
   for (int i = 0; i < size; ++i) {
     v[i] += a[i];
     q[i] += second * v[i];

@@ -218,13 +218,18 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
   const unsigned char* asleep = rod->work.asleep;  // all 0 when nothing sleeps
   unsigned char* moved = rod->work.moved;
   double step_reach = options->rest_speed * dt;
+  double away = VSC_SLEEP_MOVE_SHARE * options->rest_speed * options->rest_time;  // (m)
   for (int k = 0; k < n; ++k) {
     moved[k] = 0;
     if (asleep[k]) continue;
-    // moved: its mean speed over the step reached rest_speed (a contact's chatter does not) ...
-    const double *x = q + 3 * k, *x0 = start_q + 3 * k;
+    // moved: its mean speed over the step reached rest_speed, away from where its rest began
+    // (VSC_SLEEP_MOVE_SHARE of the rest reach: a contact's chatter, micrometres about a point,
+    // is not motion, even where one substep a step leaves its swing uncancelled) ...
+    const double *x = q + 3 * k, *x0 = start_q + 3 * k, *anchor = rest + VSC_REST_SIZE * k + VSC_REST_ANCHOR;
     double dx = x[0] - x0[0], dy = x[1] - x0[1], dz = x[2] - x0[2];
-    moved[k] = dx * dx + dy * dy + dz * dz >= step_reach * step_reach;
+    double ax = x[0] - anchor[0], ay = x[1] - anchor[1], az = x[2] - anchor[2];
+    moved[k] = dx * dx + dy * dy + dz * dz >= step_reach * step_reach &&
+               ax * ax + ay * ay + az * az >= away * away;
     // ... or, creeping slower, it left the reach of where its rest began; within it, its rest goes on
     if (within_rest(options, q, rest, k)) {
       rest[VSC_REST_SIZE * k + VSC_REST_TIME] += dt;

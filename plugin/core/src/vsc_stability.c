@@ -7,7 +7,6 @@
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_jacobian.h"
-#include "vsc_contact_load.h"
 #include "vsc_schemes.h"
 
 // y = K x for the frequency estimate: with `contact` = 0, the band part of the
@@ -116,11 +115,21 @@ int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contac
   double gamma = contact_damping_rate > 0.0 && isfinite(contact_damping_rate) ? contact_damping_rate : 0.0;
   // the stiffest elastic mode and the stiffest damped contact mode are taken as one: a bound, as the
   // cavity's piled loops, pressed by a tool, come near it (at abdomen.xml's 3 substeps they diverge).
-  // The kick takes the damping past gamma h = VSC_CONTACT_DAMPING_EXPLICIT implicitly: only that share counts.
-  if (scheme->explicit_damping && gamma > 0.0)  // omega^2 h^2 + 2 min(gamma h, explicit share) <= trusted^2
+  // Their contact pass may limit a pile's gamma h to VSC_KICK_DAMPING_LIMIT: no more than that counts.
+  if (scheme->explicit_damping && gamma > 0.0)  // omega^2 h^2 + 2 min(gamma h, the limit) <= trusted^2
     for (; substeps < VSC_MAX_AUTO_SUBSTEPS; substeps += 1.0) {
-      double hs = dt / substeps, damped = gamma * hs < VSC_CONTACT_DAMPING_EXPLICIT ? gamma * hs : VSC_CONTACT_DAMPING_EXPLICIT;
+      double hs = dt / substeps, damped = gamma * hs < VSC_KICK_DAMPING_LIMIT ? gamma * hs : VSC_KICK_DAMPING_LIMIT;
       if (omega * omega * hs * hs + 2.0 * damped <= trusted * trusted) break;
     }
   return substeps > VSC_MAX_AUTO_SUBSTEPS ? VSC_MAX_AUTO_SUBSTEPS : (int)substeps;
+}
+
+double vsc_stable_damping_limit(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
+                                double dt, int substeps) {
+  if ((unsigned)integrator >= VSC_INTEGRATOR_COUNT || substeps < 1 || !(dt > 0.0)) return VSC_CONTACT_DAMPING_LIMIT;
+  const vsc_scheme* scheme = &vsc_schemes[integrator];
+  if (!scheme->explicit_damping) return VSC_CONTACT_DAMPING_LIMIT;
+  double omega = elastic > contact ? elastic : contact, h = dt / substeps, trusted = scheme->trusted_omega_h;
+  double gamma = contact_damping_rate > 0.0 && isfinite(contact_damping_rate) ? contact_damping_rate : 0.0;
+  return omega * omega * h * h + 2.0 * gamma * h > trusted * trusted ? VSC_KICK_DAMPING_LIMIT : VSC_CONTACT_DAMPING_LIMIT;
 }

@@ -3,6 +3,7 @@
 // (place, forces and the scheme in the integrator's substep, then friction);
 // then the guard; retries with twice the substeps; and, if none held, the
 // start restored (see viscera/vsc_integrate.h).
+#include "vsc_contact_load.h"
 #include "vsc_step.h"
 
 #include <math.h>
@@ -16,7 +17,8 @@
 #include "vsc_sleep.h"
 
 vsc_step_options vsc_default_step_options(void) {
-  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0, vsc_default_sleep_options()};
+  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0, VSC_CONTACT_DAMPING_LIMIT,
+                                 vsc_default_sleep_options()};
   return options;
 }
 
@@ -110,12 +112,15 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reaction
 static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
                        double* stick, double* rest, double dt, const vsc_step_options* options,
                        vsc_step_report* report) {
-  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, 0};
+  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, VSC_CONTACT_DAMPING_LIMIT};
   clear_reactions(&context);  // overwritten whatever the step does, even refused
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
-      !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT)
+      !(o.energy_jump_speed >= 0.0) || (unsigned)o.integrator >= VSC_INTEGRATOR_COUNT ||
+      !(o.damping_limit >= VSC_KICK_DAMPING_LIMIT && o.damping_limit <= VSC_CONTACT_DAMPING_LIMIT))
     return VSC_ERROR_INVALID_ARGUMENT;
+  // the contact pass's bound on a pile's damping: the step's where the scheme applies damping explicitly
+  if (vsc_schemes[o.integrator].explicit_damping) context.damping_limit = o.damping_limit;
   vsc_sleep_host_wakes(rod, world, q, rest);
   int sleeping = rest && o.sleep.enabled;
   if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||

@@ -15,6 +15,16 @@
 #define VSC_RK4_TRUSTED_OMEGA_H 2.7
 #define VSC_EULER_TRUSTED_OMEGA_H 1.8
 
+/// The bound on a pile's contact damping rate gamma times the substep h
+/// (dimensionless) that a contact pass keeps to (src/vsc_contact_load.h): the
+/// explicit limit itself, 2, as the bound is an upper one (no margin needed) ...
+#define VSC_CONTACT_DAMPING_LIMIT 2.0
+
+/// ... or, where the stability estimate counted on it to take fewer substeps
+/// (vsc_stable_damping_limit), below 1: an explicit kick then never reverses a
+/// velocity by its damping, with the 10 % margin of the trusted omega h (1.8 of 2).
+#define VSC_KICK_DAMPING_LIMIT 0.9
+
 /// The integrators, one row each: X(ID, name, substep function, trusted omega h,
 /// explicit damping, global length term implicit, elastic forces implicit,
 /// phase coefficient, phase order).
@@ -66,11 +76,14 @@ typedef struct vsc_step_options {
   double energy_jump_ratio;  ///< a step diverged if the rod's energy grows by more than this times
                              ///< its kinetic + elastic (+ contact) energy at the step start ...
   double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
+  double damping_limit;      ///< the bound on a pile's gamma h the contact pass of the schemes that apply
+                             ///< damping explicitly keeps to (vsc_stable_damping_limit in vsc_stability.h;
+                             ///< in [VSC_KICK_DAMPING_LIMIT, VSC_CONTACT_DAMPING_LIMIT])
   vsc_sleep_options sleep;   ///< which control points sleep (vsc_sleep.h; needs the step's `rest` timers)
 } vsc_step_options;
 
 /// Leapfrog, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2,
-/// no sleeping.
+/// damping limit VSC_CONTACT_DAMPING_LIMIT, no sleeping.
 vsc_step_options vsc_default_step_options(void);
 
 /// What a step did.

@@ -75,6 +75,15 @@ vsc_sleep_options vsc_default_sleep_options(void);
 /// ordinary depth at rest is a few tenths of a millimetre).
 #define VSC_SLEEP_WAKE_DEPTH 0.1
 
+/// An awake point's step counts as motion (it wakes sleeping neighbours and
+/// what its spheres touch) only once the point is this share of the rest reach
+/// (rest_speed x rest_time) from where its rest began: 0.125 mm at the
+/// defaults. A contact's chatter swings a few micrometres about a point, at up
+/// to 10 mm/s; with one substep a step its swing is not cancelled within the
+/// step, and after the anatomical sweep it kept woken half the small bowel that
+/// two substeps let sleep.
+#define VSC_SLEEP_MOVE_SHARE 0.1
+
 /// Control points either side of a point whose motion wakes it: the spline's
 /// reach (a sample depends on 4 consecutive points, a spring on 2 samples).
 #define VSC_SLEEP_REACH 3

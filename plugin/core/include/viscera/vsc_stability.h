@@ -42,4 +42,13 @@ void vsc_rod_frequencies(vsc_rod* rod, const double* q, vsc_integrator integrato
 int vsc_stable_substeps(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
                         double dt);
 
+/// The bound on a pile's gamma h (vsc_step_options.damping_limit) for
+/// `substeps` substeps of dt (s): VSC_KICK_DAMPING_LIMIT where `integrator`
+/// applies damping explicitly and the stiffest mode with the whole contact
+/// damping rate passes the trusted bound at that substep (vsc_stable_substeps
+/// counted on the lower limit to take so few), VSC_CONTACT_DAMPING_LIMIT
+/// otherwise: a scene whose substeps hold the damping as it is keeps it whole.
+double vsc_stable_damping_limit(vsc_integrator integrator, double elastic, double contact, double contact_damping_rate,
+                                double dt, int substeps);
+
 #endif  // VISCERA_VSC_STABILITY_H
