@@ -3,7 +3,6 @@
 // (place, forces and the scheme in the integrator's substep, then friction);
 // then the guard; retries with twice the substeps; and, if none held, the
 // start restored (see viscera/vsc_integrate.h).
-#include "vsc_contact_load.h"
 #include "vsc_step.h"
 
 #include <math.h>
