@@ -6,6 +6,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "vsc_place.h"
 
@@ -214,43 +215,27 @@ static void gather_to_control(const vsc_rod* rod, double* Q) {
   }
 }
 
+// dl/dp at every sample from the unit spring edges u: u_(a-1) - u_a (no edge
+// before the first sample or after the last); restrict parameters: the loop vectorises.
+VSC_VECTOR_CLONES static void edge_differences(const double* restrict u, double* restrict g, int samples) {
+  g[0] = -u[0];
+  for (int a = 1; a + 1 < samples; ++a) g[a] = u[a - 1] - u[a];
+  g[samples - 1] = u[samples - 2];
+}
+
 void vsc_rod_length_gradient(vsc_rod* rod, double* gradient) {
   int N = rod->sample_count;
   spring_edges(rod, 1);
-  double *ux = rod->work.edge_x, *uy = rod->work.edge_y, *uz = rod->work.edge_z;
+  double* u[3] = {rod->work.edge_x, rod->work.edge_y, rod->work.edge_z};
   const double* el = rod->work.edge_length;
-  for (int a = 0; a + 1 < N; ++a) {  // unit edges (a collapsed one has no direction)
-    double inverse = el[a] > 0.0 ? 1.0 / el[a] : 0.0;
-    ux[a] *= inverse;
-    uy[a] *= inverse;
-    uz[a] *= inverse;
-  }
-  // dl/dp_a = u_(a-1) - u_a (no edge before the first sample or after the last), gathered as forces are
-  for (int k = 0; k < rod->n; ++k) {
-    int a0 = rod->gather_first[k], count = rod->gather_count[k];
-    const double* w = rod->gather_weight + rod->gather_offset[k];
-    double sx = 0.0, sy = 0.0, sz = 0.0;
-    for (int i = 0; i < count; ++i) {
-      int a = a0 + i;
-      double gx = 0.0, gy = 0.0, gz = 0.0;
-      if (a > 0) {
-        gx += ux[a - 1];
-        gy += uy[a - 1];
-        gz += uz[a - 1];
-      }
-      if (a + 1 < N) {
-        gx -= ux[a];
-        gy -= uy[a];
-        gz -= uz[a];
-      }
-      sx += w[i] * gx;
-      sy += w[i] * gy;
-      sz += w[i] * gz;
-    }
-    gradient[3 * k] = sx;
-    gradient[3 * k + 1] = sy;
-    gradient[3 * k + 2] = sz;
-  }
+  for (int c = 0; c < 3; ++c)  // unit edges (a collapsed one has no direction)
+    for (int a = 0; a + 1 < N; ++a) u[c][a] = el[a] > 0.0 ? u[c][a] / el[a] : 0.0;
+  // the sample forces were gathered in the evaluation: their arrays hold dl/dp, gathered as forces are
+  edge_differences(u[0], rod->work.force_x, N);
+  edge_differences(u[1], rod->work.force_y, N);
+  edge_differences(u[2], rod->work.force_z, N);
+  memset(gradient, 0, sizeof(double) * 3 * (size_t)rod->n);
+  gather_to_control(rod, gradient);
 }
 
 double vsc_rod_length(vsc_rod* rod, const double* q) {
