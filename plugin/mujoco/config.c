@@ -412,6 +412,21 @@ int vsc_plugin_config_substeps(const vsc_plugin_config* c, double elastic, doubl
   return accurate > stable ? (int)accurate : stable;
 }
 
+vsc_plugin_step_plan vsc_plugin_config_plan(const vsc_plugin_config* c, double elastic, double kicked,
+                                            double contact, double contact_damping_rate, double dt) {
+  int can_kick = vsc_integrator_length_implicit(c->step.integrator);
+  vsc_plugin_step_plan plan = {c->step.substeps, can_kick, c->step.damping_limit, can_kick ? kicked : elastic};
+  if (!c->auto_substeps) return plan;
+  int whole = vsc_plugin_config_substeps(c, elastic, contact, contact_damping_rate, dt);
+  int fewer = can_kick ? vsc_plugin_config_substeps(c, kicked, contact, contact_damping_rate, dt) : whole;
+  plan.length_implicit = fewer < whole;
+  plan.substeps = plan.length_implicit ? fewer : whole;
+  plan.elastic = plan.length_implicit ? kicked : elastic;
+  plan.damping_limit = vsc_stable_damping_limit(c->step.integrator, plan.elastic, contact, contact_damping_rate, dt,
+                                                plan.substeps);
+  return plan;
+}
+
 // 'exclude': other intestine instances of the model, by name.
 static int read_excluded(reader* r, vsc_plugin_config* c) {
   c->exclude_count = read_names(r, "exclude", mjOBJ_PLUGIN, "plugin instance", c->exclude, VSC_MAX_EXCLUDED);

@@ -159,6 +159,24 @@ int vsc_plugin_config_check_timestep(const vsc_plugin_config* config, double dt,
 int vsc_plugin_config_substeps(const vsc_plugin_config* config, double elastic, double contact,
                                double contact_damping_rate, double dt);
 
+/// What each step takes at timestep dt (s).
+typedef struct vsc_plugin_step_plan {
+  int substeps;          ///< substeps per step
+  int length_implicit;   ///< 1: the kick takes the global length term implicitly
+  double damping_limit;  ///< the bound on a pile's gamma h (vsc_stable_damping_limit)
+  double elastic;        ///< the elastic frequency the substeps meet (rad/s)
+} vsc_plugin_step_plan;
+
+/// The step's plan from the rod's frequencies (rad/s: elastic with the global
+/// length term, `kicked` without it, contact) and contact damping rate (1/s):
+/// with 'substeps' given, those, the length term implicit (where the
+/// integrator can) and the damping whole; else vsc_plugin_config_substeps, the
+/// length term implicit only where that saves a substep (elsewhere the kick
+/// stays exactly symplectic and pays nothing for it), and the damping limit
+/// those substeps count on.
+vsc_plugin_step_plan vsc_plugin_config_plan(const vsc_plugin_config* config, double elastic, double kicked,
+                                            double contact, double contact_damping_rate, double dt);
+
 /// Release what vsc_plugin_config_read allocated.
 void vsc_plugin_config_free(vsc_plugin_config* config);
 

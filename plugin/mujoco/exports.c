@@ -298,16 +298,22 @@ VSC_EXPORT int viscera_intestine_energy(const mjModel* m, int instance, const do
 }
 
 /// Stability of intestine `instance` at its initial shape: out = {highest
-/// elastic angular frequency (rad/s), highest contact angular frequency (rad/s),
-/// substeps the plugin takes per step of the model's timestep (the config's
-/// 'substeps' if given, else vsc_stable_substeps)}. Returns 0, or -1.
+/// elastic angular frequency its substeps meet (rad/s: without the global
+/// length term where the kick takes it implicitly), highest contact angular
+/// frequency (rad/s), substeps the plugin takes per step of the model's
+/// timestep (vsc_plugin_config_plan)}. Returns 0, or -1.
 VSC_EXPORT int viscera_intestine_stability(const mjModel* m, int instance, double out[3]) {
   vsc_plugin_config config;
   double* initial_q;
   vsc_rod* rod;
   if (create_initial_rod(m, instance, &config, &initial_q, &rod)) return -1;
-  vsc_rod_frequencies(rod, initial_q, config.step.integrator, &out[0], &out[1]);
-  out[2] = vsc_plugin_config_substeps(&config, out[0], out[1], vsc_rod_contact_damping_rate(rod), m->opt.timestep);
+  double elastic, kicked;
+  vsc_rod_frequencies(rod, initial_q, 0, &elastic, &out[1]);
+  vsc_rod_frequencies(rod, initial_q, 1, &kicked, &out[1]);
+  vsc_plugin_step_plan plan = vsc_plugin_config_plan(&config, elastic, kicked, out[1], vsc_rod_contact_damping_rate(rod),
+                                                     m->opt.timestep);
+  out[0] = plan.elastic;
+  out[2] = plan.substeps;
   release_initial_rod(&config, initial_q, rod);
   return 0;
 }

@@ -40,10 +40,10 @@ typedef struct intestine {
   int checked_start;      // the first step of this data looked for a start inside a geom
   vsc_state_layout layout;  // plugin_state's blocks for this model and config (state_layout.h)
   double elastic_frequency;  // highest angular frequencies at the initial shape (rad/s), vsc_rod_frequencies,
-  double contact_frequency;  // computed at creation when the substeps come from the timestep
-  double substeps_timestep;  // the timestep (s) `substeps` was chosen for (0: none yet)
-  int substeps;              // substeps per step at that timestep
-  double damping_limit;      // the bound on a pile's gamma h at those substeps (vsc_stable_damping_limit)
+  double kicked_frequency;   // computed at creation when the substeps come from the timestep: elastic,
+  double contact_frequency;  // elastic without the global length term, contact
+  double plan_timestep;      // the timestep (s) `plan` was chosen for (0: none yet)
+  vsc_plugin_step_plan plan; // what each step takes at that timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
   // contacts with the other intestine instances (partners.h): this one computes those with the
   // higher instances and hands them loads through its own `handed`, which they read; the lower
@@ -133,8 +133,10 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
     intestine_free(it);
     return NULL;
   }
-  if (it->config.auto_substeps)  // here, not in the first step: about 1-2 ms, which no step should pay
-    vsc_rod_frequencies(it->rod, it->initial_q, it->config.step.integrator, &it->elastic_frequency, &it->contact_frequency);
+  if (it->config.auto_substeps) {  // here, not in the first step: about 1-2 ms each, which no step should pay
+    vsc_rod_frequencies(it->rod, it->initial_q, 0, &it->elastic_frequency, &it->contact_frequency);
+    vsc_rod_frequencies(it->rod, it->initial_q, 1, &it->kicked_frequency, &it->contact_frequency);
+  }
   return it;
 }
 
@@ -429,24 +431,19 @@ static void warn_start_inside(const mjModel* m, intestine* it, const vsc_world* 
               VSC_PUSH_OUT_SPEED);
 }
 
-// Substeps per step: the config's, or else the fewest the rod's stability
-// estimate allows at the model's timestep, and the pile's damping limit those
-// substeps count on (given substeps keep the whole damping), chosen again only
-// when the timestep changes. The estimate is taken at the initial shape, from
-// the model alone, so every copy of a data chooses alike.
-static void choose_substeps(const mjModel* m, intestine* it, vsc_step_options* step) {
-  if (it->substeps_timestep != m->opt.timestep) {
-    double rate = vsc_rod_contact_damping_rate(it->rod);
-    it->substeps = vsc_plugin_config_substeps(&it->config, it->elastic_frequency, it->contact_frequency, rate,
-                                              m->opt.timestep);
-    it->damping_limit = it->config.auto_substeps ? vsc_stable_damping_limit(it->config.step.integrator,
-                                                                            it->elastic_frequency, it->contact_frequency,
-                                                                            rate, m->opt.timestep, it->substeps)
-                                                 : it->config.step.damping_limit;
-    it->substeps_timestep = m->opt.timestep;
+// The step's plan (vsc_plugin_config_plan: substeps, the length term in the
+// kick, the pile's damping limit), chosen again only when the timestep
+// changes. The estimate is taken at the initial shape, from the model alone, so
+// every copy of a data chooses alike.
+static void plan_step(const mjModel* m, intestine* it, vsc_step_options* step) {
+  if (it->plan_timestep != m->opt.timestep) {
+    it->plan = vsc_plugin_config_plan(&it->config, it->elastic_frequency, it->kicked_frequency, it->contact_frequency,
+                                      vsc_rod_contact_damping_rate(it->rod), m->opt.timestep);
+    it->plan_timestep = m->opt.timestep;
   }
-  step->substeps = it->substeps;
-  step->damping_limit = it->damping_limit;
+  step->substeps = it->plan.substeps;
+  step->length_implicit = it->plan.length_implicit;
+  step->damping_limit = it->plan.damping_limit;
 }
 
 // A state that is not finite anywhere (a bad mj_setState, say) starts over
@@ -762,7 +759,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   vsc_reactions reactions;
   vsc_world world = gather(m, d, it, state, instance, &reactions);
   vsc_step_options step = it->config.step;
-  choose_substeps(m, it, &step);
+  plan_step(m, it, &step);
   vsc_step_report report = {0, 0};
   vsc_status status = vsc_rod_step(it->rod, &world, &reactions, state + l.offset[VSC_STATE_POSITIONS],
                                    state + l.offset[VSC_STATE_VELOCITIES], state + l.offset[VSC_STATE_FRICTION],

@@ -22,6 +22,7 @@ typedef struct vsc_step_context {
                            ///< must keep stable (vsc_contact_load.h); 0 in a lone evaluation: no limit
   double damping_limit;    ///< the bound on a pile's gamma h the contact pass keeps to: the
                            ///< scheme's (vsc_contact_load.h)
+  int length_implicit;     ///< 1: the kick takes the global length term implicitly (vsc_schemes.c)
 } vsc_step_context;
 
 /// The reactions of a caller that wants none: every member NULL, nothing written.

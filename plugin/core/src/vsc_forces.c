@@ -82,7 +82,7 @@ const vsc_reactions vsc_no_reactions = {NULL, NULL};
 // A lone evaluation: no friction state, reactions at full weight.
 static vsc_step_context lone(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions) {
   vsc_step_context context = {rod, world, reactions ? reactions : &vsc_no_reactions, NULL, 1.0, 1.0, NULL, 0.0,
-                               VSC_CONTACT_DAMPING_LIMIT};
+                               VSC_CONTACT_DAMPING_LIMIT, 0};
   return context;
 }
 

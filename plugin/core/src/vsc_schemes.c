@@ -129,7 +129,7 @@ static vsc_status drift_kick_drift(vsc_step_context* context, double* q, double*
   vsc_forces_acceleration(context, q, v, a);
   double exact = exact_damping_correction(rod, h);
   for (int i = 0; i < size; ++i) a[i] = h * a[i] + exact * v[i];  // now the velocity change
-  implicit_length_kick(rod, h, a);
+  if (context->length_implicit) implicit_length_kick(rod, h, a);
   for (int i = 0; i < size; ++i) {
     v[i] += a[i];
     q[i] += second * v[i];
@@ -265,3 +265,7 @@ const vsc_scheme vsc_schemes[VSC_INTEGRATOR_COUNT] = {VSC_INTEGRATORS(VSC_SCHEME
 #define VSC_SCHEME_NAME_(id, name, substep, trusted, explicit_damping, length_implicit, elastic_implicit, phase_c, phase_p) \
   [VSC_INTEGRATOR_##id] = name,
 const char* const vsc_integrator_names[VSC_INTEGRATOR_COUNT + 1] = {VSC_INTEGRATORS(VSC_SCHEME_NAME_) NULL};
+
+int vsc_integrator_length_implicit(vsc_integrator integrator) {
+  return (unsigned)integrator < VSC_INTEGRATOR_COUNT && vsc_schemes[integrator].length_implicit;
+}

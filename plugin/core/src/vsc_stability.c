@@ -73,14 +73,13 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
   return lambda;
 }
 
-void vsc_rod_frequencies(vsc_rod* rod, const double* q, vsc_integrator integrator, double* elastic, double* contact) {
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, double* elastic, double* contact) {
   int size = 3 * rod->n;
   vsc_world world = {{0, 0, 0}, NULL, 0};
   double* gradient = rod->work.stage;
   memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
   vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->work.system, gradient);
-  int length_implicit = (unsigned)integrator < VSC_INTEGRATOR_COUNT && vsc_schemes[integrator].length_implicit;
-  for (int k = 0; k < rod->n; ++k)  // a scheme that kicks the global length term implicitly does not see its mode
+  for (int k = 0; k < rod->n; ++k)  // a kick that takes the global length term implicitly does not see its mode
     if (rod->is_pinned[k] || length_implicit) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
   *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));
   memset(gradient, 0, sizeof(double) * (size_t)size);  // contact alone: no global term either

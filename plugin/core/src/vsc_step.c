@@ -16,7 +16,7 @@
 #include "vsc_sleep.h"
 
 vsc_step_options vsc_default_step_options(void) {
-  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0, VSC_CONTACT_DAMPING_LIMIT,
+  vsc_step_options options = {VSC_INTEGRATOR_LEAPFROG, 1, 4, 1.0, 3.0, 1, VSC_CONTACT_DAMPING_LIMIT,
                                  vsc_default_sleep_options()};
   return options;
 }
@@ -111,7 +111,7 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reaction
 static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
                        double* stick, double* rest, double dt, const vsc_step_options* options,
                        vsc_step_report* report) {
-  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, VSC_CONTACT_DAMPING_LIMIT};
+  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, VSC_CONTACT_DAMPING_LIMIT, 0};
   clear_reactions(&context);  // overwritten whatever the step does, even refused
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
@@ -120,6 +120,7 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
     return VSC_ERROR_INVALID_ARGUMENT;
   // the contact pass's bound on a pile's damping: the step's where the scheme applies damping explicitly
   if (vsc_schemes[o.integrator].explicit_damping) context.damping_limit = o.damping_limit;
+  context.length_implicit = o.length_implicit && vsc_schemes[o.integrator].length_implicit;
   vsc_sleep_host_wakes(rod, world, q, rest);
   int sleeping = rest && o.sleep.enabled;
   if (sleeping && (!rod->def.lumped_mass || o.integrator == VSC_INTEGRATOR_IMPLICIT ||

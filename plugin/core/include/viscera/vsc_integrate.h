@@ -76,14 +76,21 @@ typedef struct vsc_step_options {
   double energy_jump_ratio;  ///< a step diverged if the rod's energy grows by more than this times
                              ///< its kinetic + elastic (+ contact) energy at the step start ...
   double energy_jump_speed;  ///< ... plus 1/2 mass speed^2 (m/s): the energy of the whole rod at this speed
+  int length_implicit;       ///< 1: the kick of the schemes whose row says so (length implicit) takes the
+                             ///< global length term implicitly; 0: explicitly, as RK4 does (exactly
+                             ///< symplectic, and cheaper where that term is not the stiffest mode)
   double damping_limit;      ///< the bound on a pile's gamma h the contact pass of the schemes that apply
                              ///< damping explicitly keeps to (vsc_stable_damping_limit in vsc_stability.h;
                              ///< in [VSC_KICK_DAMPING_LIMIT, VSC_CONTACT_DAMPING_LIMIT])
   vsc_sleep_options sleep;   ///< which control points sleep (vsc_sleep.h; needs the step's `rest` timers)
 } vsc_step_options;
 
+/// 1 if `integrator`'s kick can take the global length term implicitly (its
+/// row's length implicit: vsc_step_options.length_implicit then applies), else 0.
+int vsc_integrator_length_implicit(vsc_integrator integrator);
+
 /// Leapfrog, 1 substep, 4 retries (up to 16 substeps), jump bound 1 x energy + 1/2 m (3 m/s)^2,
-/// damping limit VSC_CONTACT_DAMPING_LIMIT, no sleeping.
+/// the global length term implicit in the kick, damping limit VSC_CONTACT_DAMPING_LIMIT, no sleeping.
 vsc_step_options vsc_default_step_options(void);
 
 /// What a step did.

@@ -21,15 +21,15 @@
 #define VSC_MAX_AUTO_SUBSTEPS 1024
 
 /// Highest angular frequencies (rad/s) of the rod linearised at q (m): of its
-/// elastic forces (M^-1 K, pinned points held) as `integrator` meets them
-/// (without the global length term where its kick takes that implicitly, the
-/// scheme table's length_implicit), and of its contact springs
-/// alone, every sphere pressed by a geom in every direction (a rod lying on a
-/// plane has exactly that across it), times sqrt(2) with self-collision (a
-/// pair presses two spheres). Power iteration, O(n) per iteration. Also sets
-/// rod->contact_damping_rate. Overwrites the rod's scratch (samples, stages,
-/// the implicit system).
-void vsc_rod_frequencies(vsc_rod* rod, const double* q, vsc_integrator integrator, double* elastic, double* contact);
+/// elastic forces (M^-1 K, pinned points held), without the global length
+/// term's rank-one part if `length_implicit` (the mode a kick that takes that
+/// term implicitly meets: vsc_step_options.length_implicit), and of its contact
+/// springs alone, every sphere pressed by a geom in every direction (a rod
+/// lying on a plane has exactly that across it), times sqrt(2) with
+/// self-collision (a pair presses two spheres). Power iteration, O(n) per
+/// iteration. Also sets rod->contact_damping_rate. Overwrites the rod's scratch
+/// (samples, stages, the implicit system).
+void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, double* elastic, double* contact);
 
 /// Fewest substeps of `integrator` for a step dt (s) with omega h within the
 /// trusted bound of its row in vsc_integrate.h, omega from the frequencies (rad/s) of
