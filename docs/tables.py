@@ -592,6 +592,41 @@ def rl_curve() -> str:
     return _rows(["environment steps", "CPU core-hours", f"success, seeds {first}-{last}", "mean return"], rows)
 
 
+def one_substep() -> str:
+    """From docs/bench/one_substep.json and one_substep_4114abd.json (python python/tools/one_substep.py
+    --json ..., the second in an environment holding 4114abd): the anatomical abdomen's substeps,
+    sleep after sweeps and recoveries, and the paper's fall against 8 substeps."""
+    rows = []
+    for name, label in (("one_substep_4114abd.json", "4114abd (the round's start)"), ("one_substep.json", "this build")):
+        r = _json(f"bench/{name}")
+        bowel = r["substeps"]["anatomical abdomen"]["intestines"][0]
+        asleep = " / ".join(f"{100 * s['asleep_each_second'][-1]:.0f}" for s in r["sweeps"])
+        rows.append([label, f"{bowel['substeps']} ({bowel['elastic_rad_s']:.0f} rad/s)", asleep,
+                     f"{100 * r['median_asleep_after_rest']:.0f} % ({100 * r['least_asleep_after_rest']:.0f} %)",
+                     str(r["recoveries"]), f"{1e3 * r['fall']['largest_centroid_distance_m']:.2f}",
+                     f"{1e3 * r['fall']['largest_mean_point_distance_m']:.2f}"])
+    sweeps = " / ".join(f"{s['sweep_s']:g}" for s in _json("bench/one_substep.json")["sweeps"])
+    return _rows(["build", "small bowel: substeps per 1 ms (elastic mode met)",
+                  f"small bowel asleep 5 s after sweeps of {sweeps} s (%)", "median (least)",
+                  "recoveries, sweeps and rests", "fall: centroid off 8 substeps (mm)", "fall: mean point off (mm)"],
+                 rows)
+
+
+def versus_4114abd() -> str:
+    """From docs/bench/versus_4114abd_anatomical.json and versus_4114abd_box.json (python
+    python/tools/bench_versus.py OTHER_PYTHON ..., the other environment holding 4114abd)."""
+    rows = []
+    for name, scene in (("versus_4114abd_anatomical.json", "anatomical"), ("versus_4114abd_box.json", "box")):
+        r = _json(f"bench/{name}")
+        for load, e in r["loads"].items():
+            label = load if load == "fall" else f"{scene} abdomen, {load.split()[1]}"
+            rows.append([label, f"{e['this_wall_s_per_sim_s']:.3f}", f"{e['other_wall_s_per_sim_s']:.3f}",
+                         f"**{e['ratio_median']:.2f}** ({min(e['ratios']):.2f} to {max(e['ratios']):.2f}, "
+                         f"{len(e['ratios'])} pairs)", f"{1.0 / e['ratio_median']:.2f}x"])
+    return _rows(["load", "this build: wall s / sim s", "4114abd: wall s / sim s",
+                  "this / 4114abd, median (pairs)", "speed-up"], rows)
+
+
 def render(text: str) -> str:
     text = MARK.sub(lambda m: m.group(1) + globals()[m.group(2)]() + m.group(4), text)
     return VALUE.sub(lambda m: m.group(1) + value(m.group(2), m.group(3), m.group(4)) + m.group(6), text)
