@@ -130,11 +130,19 @@ def test_no_call_cycle_between_the_plugins_files():
 
 
 def test_every_core_source_has_its_own_header_and_includes_it_first():
+    """Each core source includes its own header first: its private one (src/), where it declares
+    something the public one does not, else its public one (include/viscera/). A private header
+    that would only include the public one is not written (the review found 13 such)."""
     for source in sorted((PLUGIN / "core" / "src").glob("*.c")):
-        header = source.with_suffix(".h")
-        assert header.exists(), f"{source.name} has no {header.name}"
+        private, public = source.with_suffix(".h"), PLUGIN / "core" / "include" / "viscera" / f"{source.stem}.h"
+        assert private.exists() or public.exists(), f"{source.name} has no header"
+        own = private.name if private.exists() else f"viscera/{public.name}"
         first = INCLUDE.search(COMMENT.sub("", source.read_text()))
-        assert first and first.group(1) == header.name, f"{source.name} includes {first.group(1)} first"
+        assert first and first.group(1) == own, f"{source.name} includes {first.group(1)} first, not {own}"
+    for header in sorted((PLUGIN / "core" / "src").glob("*.h")):
+        code = [line for line in COMMENT.sub("", header.read_text()).splitlines()
+                if line.strip() and not line.startswith(("#ifndef", "#define", "#endif"))]
+        assert not (len(code) == 1 and code[0].startswith('#include "viscera/')), f"{header.name} holds nothing"
 
 
 def test_no_import_cycle_in_the_package():

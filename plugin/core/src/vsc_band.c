@@ -1,5 +1,5 @@
 // Band LDL^T factorisation and solves (layout in vsc_band.h).
-#include "vsc_band.h"
+#include "viscera/vsc_band.h"
 
 #include <math.h>
 #include <stddef.h>

@@ -1,4 +1,4 @@
-#include "vsc_base.h"
+#include "viscera/vsc_base.h"
 
 const char* vsc_status_string(vsc_status status) {
   switch (status) {

@@ -1,5 +1,5 @@
 // Tissue damage (see vsc_damage.h).
-#include "vsc_damage.h"
+#include "viscera/vsc_damage.h"
 
 #include <math.h>
 

@@ -1,5 +1,6 @@
 // The rod's mechanical energies (see viscera/vsc_energy.h).
-#include "vsc_energy.h"
+#include "viscera/vsc_energy.h"
+#include "vsc_rod.h"
 
 #include <string.h>
 

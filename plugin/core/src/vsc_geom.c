@@ -1,5 +1,5 @@
 // Exact signed distances to rigid primitives.
-#include "vsc_geom.h"
+#include "viscera/vsc_geom.h"
 
 #include <math.h>
 

@@ -1,5 +1,5 @@
 // Spatial hash of sphere boxes (see vsc_grid.h).
-#include "vsc_grid.h"
+#include "viscera/vsc_grid.h"
 
 #include <math.h>
 #include <stdint.h>

@@ -1,6 +1,6 @@
 // Band force Jacobians (see vsc_jacobian.h): sample-level blocks first, then
 // projected onto control points through the spline basis.
-#include "vsc_jacobian.h"
+#include "viscera/vsc_jacobian.h"
 
 #include <math.h>
 #include <string.h>

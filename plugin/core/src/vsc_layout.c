@@ -1,5 +1,5 @@
 // Initial layouts of the axis (see vsc_layout.h).
-#include "vsc_layout.h"
+#include "viscera/vsc_layout.h"
 
 #include <math.h>
 

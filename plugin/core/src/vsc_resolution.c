@@ -1,5 +1,5 @@
 // The resolution a tolerance chooses (see viscera/vsc_resolution.h).
-#include "vsc_resolution.h"
+#include "viscera/vsc_resolution.h"
 
 #include <math.h>
 

@@ -1,5 +1,5 @@
 // Generalised-cylinder skin with twist-free frames (see vsc_skin.h).
-#include "vsc_skin.h"
+#include "viscera/vsc_skin.h"
 
 #include <math.h>
 

@@ -1,5 +1,5 @@
 // Catmull-Rom basis and the open-spline end closure (see vsc_spline.h).
-#include "vsc_spline.h"
+#include "viscera/vsc_spline.h"
 
 void vsc_catmull_rom_weights(double u, double w[VSC_SPLINE_SUPPORT]) {
   // Catmull & Rom (1974), uniform parametrisation, tension 1/2.

@@ -1,6 +1,7 @@
 // The rod's highest frequencies by power iteration, and the substeps a
 // timestep needs (see viscera/vsc_stability.h).
-#include "vsc_stability.h"
+#include "viscera/vsc_stability.h"
+#include "vsc_rod.h"
 
 #include <math.h>
 #include <string.h>

@@ -10,7 +10,7 @@
 
 #include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
-#include "vsc_energy.h"
+#include "viscera/vsc_energy.h"
 #include "vsc_friction.h"
 #include "vsc_schemes.h"
 #include "vsc_sleep.h"
