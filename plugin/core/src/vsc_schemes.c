@@ -114,7 +114,8 @@ static void implicit_length_kick(vsc_rod* rod, double h, double* dv) {
 }
 
 // One force evaluation: drift q by `before` of the substep, kick v with the
-// forces there (the global length term implicitly), drift the rest.
+// forces there (the global length term implicitly where the step asks), drift
+// the rest.
 // Symplectic Euler kicks first (before = 0); leapfrog drifts half, kicks,
 // drifts half (before = 1/2): the midpoint evaluation is what makes it second
 // order at the same cost.
