@@ -789,7 +789,6 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
   if (!it) return;
   const mjtNum* q = d->plugin_state + m->plugin_stateadr[instance];
   if (!all_finite(q, 3 * it->config.rod.control_count)) return;
-  vsc_rod_update_samples(it->rod, q);
   // the skin's radius profile on a capsule chain: a triangle per mjvGeom would
   // take 32k geoms for the default skin, past any scene's capacity
   static const float marked[4] = {0.25f, 0.5f, 0.9f, 1.0f};
@@ -813,8 +812,8 @@ static void intestine_visualize(const mjModel* m, mjData* d, const mjvOption* op
       vsc_basis_point(&at_from, q, from);
       vsc_basis_point(&at_to, q, to);
     } else {                                  // the spring samples, already evaluated
-      vsc_rod_sample_point(it->rod, a, from);
-      vsc_rod_sample_point(it->rod, a + 1, to);
+      vsc_rod_sample_point(it->rod, q, a, from);
+      vsc_rod_sample_point(it->rod, q, a + 1, to);
     }
     // the wall's damage here (vsc_damage.h): bruise between the two control points around, torn at the nearer
     int j = (int)floor(x) < n - 2 ? (int)floor(x) : n - 2;

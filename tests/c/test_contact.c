@@ -12,6 +12,7 @@
 #include "vsc_contact.h"
 #include "vsc_capsule.h"
 #include "vsc_contact_lists.h"
+#include "vsc_place.h"
 #include "vsc_touch.h"
 #include "viscera/viscera.h"
 #include "vsc_test.h"
@@ -65,6 +66,16 @@ static vsc_geom shaft(double t) {
   return g;
 }
 
+// The contact stages of one evaluation: place the spheres, the broad phase, the narrow phase.
+static int contact_forces(vsc_rod* rod, const vsc_world* world, const double* q, const double* v, double* Q) {
+  vsc_reactions none = {NULL, NULL};
+  vsc_step_context context = {rod, world, &none, NULL, 1.0, 1.0, NULL};
+  const vsc_rod_stages* stage = &rod->stages;
+  vsc_place_spheres(rod, q, v, stage->placement);
+  int listed = vsc_contact_lists_refresh(rod, stage->broad_phase, stage->placement->sphere_xyz, world);
+  return vsc_contact_add_forces(&context, stage->contact, stage->broad_phase, listed, stage->placement, NULL, Q);
+}
+
 static void cached_lists_match_fresh_builds(void) {
   vsc_rod* cached = coiled_rod();
   double q[3 * N], v[3 * N] = {0}, cached_force[3 * N], fresh_force[3 * N];
@@ -75,15 +86,10 @@ static void cached_lists_match_fresh_builds(void) {
     vsc_geom tool = shaft(t);
     vsc_world world = {{0, 0, 0}, &tool, 1};
     memset(cached_force, 0, sizeof(cached_force));
-    vsc_rod_update_spheres(cached, q, v);
-    vsc_reactions none = {NULL, NULL};
-    vsc_step_context context = {cached, &world, &none, NULL, 1.0, 1.0, NULL};
-    contacts += vsc_rod_add_contact_forces(&context, cached_force);
+    contacts += contact_forces(cached, &world, q, v, cached_force);
     vsc_rod* fresh = coiled_rod();
     memset(fresh_force, 0, sizeof(fresh_force));
-    vsc_rod_update_spheres(fresh, q, v);
-    context.rod = fresh;
-    vsc_rod_add_contact_forces(&context, fresh_force);
+    contact_forces(fresh, &world, q, v, fresh_force);
     for (int i = 0; i < 3 * N; ++i) mismatches += cached_force[i] != fresh_force[i];
     vsc_rod_destroy(fresh);
   }
@@ -110,17 +116,17 @@ static void self_build_lists_every_near_pair(void) {
       q[3 * k] = c * x + s * z;
       q[3 * k + 2] = -s * x + c * z;
     }
-    vsc_rod_update_spheres(rod, q, v);
-    rod->work.lists->self_built = 0;  // a fresh self build every time
-    ENSURE(vsc_contact_lists_refresh(rod, &world));
+    vsc_place_spheres(rod, q, v, rod->stages.placement);
+    vsc_contact_lists* l = rod->stages.broad_phase;
+    l->self_built = 0;  // a fresh self build every time
+    ENSURE(vsc_contact_lists_refresh(rod, l, rod->stages.placement->sphere_xyz, &world));
     ++builds;
-    const vsc_contact_lists* l = rod->work.lists;
     int spheres = rod->def.collision_sphere_count, k = 0, mismatches = 0;
     double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->radius_max;
     for (int a = 0; a + 1 < spheres; ++a)
       for (int b = a + rod->self_gap; b + 1 < spheres; ++b) {
         double u, w, d[3];
-        double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &u, &w, d);
+        double distance = vsc_segment_gap(rod->stages.placement->sphere_xyz, a, b, &u, &w, d);
         if (!(distance <= limit)) continue;
         mismatches += k >= l->self_count || l->self_pairs[2 * k] != a || l->self_pairs[2 * k + 1] != b ||
                       l->self_distance[k] != distance;

@@ -6,9 +6,12 @@
 #include <string.h>
 
 #include "viscera/vsc_rod.h"
-#include "vsc_contact_load.h"
+#include "vsc_contact.h"
 #include "vsc_rod.h"
 #include "vsc_test.h"
+
+// The contact pass's load, the stage state these tests drive directly.
+#define LOAD(rod) (&(rod)->stages.contact->load)
 
 static vsc_rod* rod_of(int control_points, int spheres) {
   vsc_rod_def def = vsc_default_rod_def();
@@ -55,9 +58,9 @@ static void unit_is_the_uniform_bound(void) {
 // 2 ms step: far below the limit, nothing limited, and the load cleared for the next pass.
 static void ordinary_contacts_are_untouched(void) {
   vsc_rod* rod = rod_of(40, 81);
-  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, rod->def.contact_stiffness);
-  ENSURE(vsc_contact_load_limit_damping(rod, 0.002 / 3.0, VSC_CONTACT_DAMPING_LIMIT) == 0);
-  for (int s = 0; s < 81; ++s) ENSURE(rod->work.contact_load[s] == 0.0);
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(LOAD(rod), s, rod->def.contact_stiffness);
+  ENSURE(vsc_contact_load_limit_damping(rod, LOAD(rod), 0.002 / 3.0, VSC_CONTACT_DAMPING_LIMIT) == 0);
+  for (int s = 0; s < 81; ++s) ENSURE(LOAD(rod)->stiffness[s] == 0.0);
   vsc_rod_destroy(rod);
 }
 
@@ -69,21 +72,21 @@ static void a_squeezed_pile_is_limited_to_the_bound(void) {
   double load[81] = {0.0}, h = 0.002 / 3.0;
   for (int s = 30; s <= 36; ++s) load[s] = 14.0 * 2.0 * rod->def.contact_stiffness;
   load[70] = rod->def.contact_stiffness;  // an ordinary contact elsewhere
-  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, load[s]);
-  ENSURE(vsc_contact_load_limit_damping(rod, h, VSC_CONTACT_DAMPING_LIMIT) == 1);
-  ENSURE(vsc_contact_load_last_bound(rod) > VSC_CONTACT_DAMPING_LIMIT);
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(LOAD(rod), s, load[s]);
+  ENSURE(vsc_contact_load_limit_damping(rod, LOAD(rod), h, VSC_CONTACT_DAMPING_LIMIT) == 1);
+  ENSURE(LOAD(rod)->bound > VSC_CONTACT_DAMPING_LIMIT);
   double worst = 0.0, unscaled = 0.0;
   for (int k = 0; k < 40; ++k) {
-    double b = bound_at(rod, load, rod->work.damping_scale, k, h);
+    double b = bound_at(rod, load, LOAD(rod)->damping_scale, k, h);
     worst = b > worst ? b : worst;
     double u = bound_at(rod, load, NULL, k, h);
     unscaled = u > unscaled ? u : unscaled;
   }
-  ENSURE_NEAR(unscaled, vsc_contact_load_last_bound(rod), 1e-9 * unscaled);
+  ENSURE_NEAR(unscaled, LOAD(rod)->bound, 1e-9 * unscaled);
   ENSURE(worst <= VSC_CONTACT_DAMPING_LIMIT * (1.0 + 1e-12));
   ENSURE(worst >= 0.5 * VSC_CONTACT_DAMPING_LIMIT);  // limited to the bound, not far below it
-  for (int s = 30; s <= 36; ++s) ENSURE(rod->work.damping_scale[s] > 0.0 && rod->work.damping_scale[s] < 1.0);
-  ENSURE(rod->work.damping_scale[70] == 1.0);
+  for (int s = 30; s <= 36; ++s) ENSURE(LOAD(rod)->damping_scale[s] > 0.0 && LOAD(rod)->damping_scale[s] < 1.0);
+  ENSURE(LOAD(rod)->damping_scale[70] == 1.0);
   vsc_rod_destroy(rod);
 }
 
@@ -99,14 +102,14 @@ static void the_kick_limit_is_lower(void) {
   for (int s = 30; s <= 36; ++s) load[s] *= pile;
   load[70] = rod->def.contact_stiffness;  // an ordinary contact elsewhere (gamma h under 0.9)
   ENSURE(bound_at(rod, load, NULL, 70 * 39 / 80, h) < VSC_KICK_DAMPING_LIMIT);
-  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, load[s]);
-  ENSURE(vsc_contact_load_limit_damping(rod, h, VSC_CONTACT_DAMPING_LIMIT) == 0);
-  for (int s = 0; s < 81; ++s) vsc_contact_load_add(rod, s, load[s]);
-  ENSURE(vsc_contact_load_limit_damping(rod, h, VSC_KICK_DAMPING_LIMIT) == 1);
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(LOAD(rod), s, load[s]);
+  ENSURE(vsc_contact_load_limit_damping(rod, LOAD(rod), h, VSC_CONTACT_DAMPING_LIMIT) == 0);
+  for (int s = 0; s < 81; ++s) vsc_contact_load_add(LOAD(rod), s, load[s]);
+  ENSURE(vsc_contact_load_limit_damping(rod, LOAD(rod), h, VSC_KICK_DAMPING_LIMIT) == 1);
   double worst = 0.0;
-  for (int k = 0; k < 40; ++k) worst = fmax(worst, bound_at(rod, load, rod->work.damping_scale, k, h));
+  for (int k = 0; k < 40; ++k) worst = fmax(worst, bound_at(rod, load, LOAD(rod)->damping_scale, k, h));
   ENSURE(worst <= VSC_KICK_DAMPING_LIMIT * (1.0 + 1e-12) && worst >= 0.5 * VSC_KICK_DAMPING_LIMIT);
-  ENSURE(rod->work.damping_scale[70] == 1.0);
+  ENSURE(LOAD(rod)->damping_scale[70] == 1.0);
   vsc_rod_destroy(rod);
 }
 

@@ -4,6 +4,9 @@
   (a cycle between files, at any length): the core's stages sit in layers.
 - Every core source file has its own header beside it (src/x.c, src/x.h), Box2D's layout,
   and includes it first.
+- Each stage of the step owns its state: a struct its own header declares, carved from the
+  rod's allocation; only four sources reach into the rod's stages to hand each its own, and
+  every other source takes another stage's state read-only.
 - In python/viscera, no module imports a module that imports it back (at any length,
   imports inside functions included).
 """
@@ -143,6 +146,34 @@ def test_every_core_source_has_its_own_header_and_includes_it_first():
         code = [line for line in COMMENT.sub("", header.read_text()).splitlines()
                 if line.strip() and not line.startswith(("#ifndef", "#define", "#endif"))]
         assert not (len(code) == 1 and code[0].startswith('#include "viscera/')), f"{header.name} holds nothing"
+
+
+# each stage's state: its struct and the core sources (stems) that own it, header included
+# (the energy queries keep an elastic scratch of their own, in the step's backup)
+STAGE_STATES = {"vsc_placement": {"vsc_place"}, "vsc_elastic_scratch": {"vsc_elastic", "vsc_energy"},
+                "vsc_contact_lists": {"vsc_contact_lists"}, "vsc_contact_pass": {"vsc_contact"},
+                "vsc_touch_records": {"vsc_touch", "vsc_contact"}, "vsc_contact_load": {"vsc_contact_load", "vsc_contact"},
+                "vsc_sleep_flags": {"vsc_sleep"}, "vsc_scheme_scratch": {"vsc_schemes"},
+                "vsc_step_backup": {"vsc_step"}}
+# the sources that hand each stage its own: the rod's creation and public queries, the
+# evaluation, the step, the schemes
+STAGE_HANDLERS = {"vsc_rod.c", "vsc_forces.c", "vsc_step.c", "vsc_schemes.c"}
+
+
+def test_each_stage_owns_its_state():
+    src = PLUGIN / "core" / "src"
+    sources = {f.name: COMMENT.sub("", f.read_text()) for f in sorted(src.glob("*.[ch]"))}
+    reaching = {name for name, text in sources.items() if re.search(r"\bstages\s*(\.|->)", text)}
+    assert reaching == STAGE_HANDLERS, f"sources reaching into the rod's stages: {sorted(reaching)}"
+    assert "work" not in re.findall(r"\w+", sources["vsc_rod.h"])  # no shared work struct left
+    for state, owners in STAGE_STATES.items():
+        declared = [name for name, text in sources.items() if re.search(rf"\bstruct {state}\s*\{{", text)]
+        assert len(declared) == 1 and declared[0][:-2] in owners, f"{state} declared in {declared}"
+        for name, text in sources.items():
+            if name in STAGE_HANDLERS or name == "vsc_rod.h" or name[:-2] in owners:
+                continue
+            for match in re.finditer(rf"(\bconst\s+)?\b{state}\s*\*", text):  # another stage's state: read only
+                assert match.group(1), f"{name} takes {state} writable: {match.group(0)}"
 
 
 def test_no_import_cycle_in_the_package():

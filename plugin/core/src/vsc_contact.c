@@ -13,7 +13,7 @@
 #include "vsc_contact_lists.h"
 #include "vsc_contact_load.h"
 #include "vsc_place.h"
-#include "vsc_touch.h"
+#include "vsc_sleep.h"
 
 // A contact the narrow phase found, before its force: the pass finds them all
 // first, so that their damping can be limited where it adds up (vsc_contact_load.h),
@@ -31,7 +31,11 @@ typedef struct found_contact {
 
 typedef struct pass {
   const vsc_step_context* context;
-  vsc_rod* rod;
+  const vsc_rod* rod;
+  vsc_contact_pass* state;       // the pass's own: found contacts, load, touch records
+  const double* x;               // the placed sphere centres (m, 3 per sphere)
+  const double* velocity;        // and velocities (m/s)
+  const unsigned char* asleep;   // per sphere, its sleep (vsc_rod.h); NULL: none sleeps
   const vsc_world* world;
   double* Q;
   int contacts;
@@ -79,14 +83,14 @@ static inline __attribute__((always_inline)) double contact_force(const vsc_rod*
 }
 
 // Room for `more` found contacts; 0 if the buffer cannot grow.
-static int reserve(vsc_rod* rod, int more) {
-  if (rod->work.found_count + more <= rod->work.found_capacity) return 1;
-  int capacity = rod->work.found_capacity > 0 ? rod->work.found_capacity : 256;
-  while (capacity < rod->work.found_count + more) capacity *= 2;
-  found_contact* grown = (found_contact*)realloc(rod->work.found, sizeof(found_contact) * (size_t)capacity);
+static int reserve(vsc_contact_pass* c, int more) {
+  if (c->found_count + more <= c->found_capacity) return 1;
+  int capacity = c->found_capacity > 0 ? c->found_capacity : 256;
+  while (capacity < c->found_count + more) capacity *= 2;
+  found_contact* grown = (found_contact*)realloc(c->found, sizeof(found_contact) * (size_t)capacity);
   if (!grown) return 0;
-  rod->work.found = grown;
-  rod->work.found_capacity = capacity;
+  c->found = grown;
+  c->found_capacity = capacity;
   return 1;
 }
 
@@ -95,41 +99,40 @@ static void push(pass* p, const found_contact* found);
 // Keep a found contact, built in `found`, for the push, with its spheres' load;
 // with no room, push it at once, unlimited.
 static void keep(pass* p, found_contact* found) {
-  vsc_rod* rod = p->rod;
+  const vsc_rod* rod = p->rod;
+  vsc_contact_pass* c = p->state;
   if (found->rigid) {
-    vsc_contact_load_add(rod, found->a, rod->def.contact_stiffness);
+    vsc_contact_load_add(&c->load, found->a, rod->def.contact_stiffness);
   } else {
     double twice_k = 2.0 * rod->def.contact_stiffness;
-    vsc_contact_load_add(rod, found->a, twice_k * (1.0 - found->s));
-    vsc_contact_load_add(rod, found->a + 1, twice_k * found->s);
-    vsc_contact_load_add(rod, found->b, twice_k * (1.0 - found->t));
-    vsc_contact_load_add(rod, found->b + 1, twice_k * found->t);
+    vsc_contact_load_add(&c->load, found->a, twice_k * (1.0 - found->s));
+    vsc_contact_load_add(&c->load, found->a + 1, twice_k * found->s);
+    vsc_contact_load_add(&c->load, found->b, twice_k * (1.0 - found->t));
+    vsc_contact_load_add(&c->load, found->b + 1, twice_k * found->t);
   }
-  if (rod->work.found && found == (found_contact*)rod->work.found + rod->work.found_count)
-    ++rod->work.found_count;
+  if (c->found && found == (found_contact*)c->found + c->found_count)
+    ++c->found_count;
   else
     push(p, found);
 }
 
 // Where the next found contact is built: the buffer's next slot, or `spare`.
 static found_contact* next_slot(pass* p, found_contact* spare) {
-  vsc_rod* rod = p->rod;
-  return rod->work.found_count < rod->work.found_capacity || reserve(rod, 1) ? (found_contact*)rod->work.found + rod->work.found_count
-                                                                   : spare;
+  vsc_contact_pass* c = p->state;
+  return c->found_count < c->found_capacity || reserve(c, 1) ? (found_contact*)c->found + c->found_count : spare;
 }
 
 // 1 if segment a's and segment b's four spheres all sleep deep: their contact cannot change
 // and no point whose forces are watched feels it.
-static inline int segments_asleep(const vsc_rod* rod, int a, int b) {
-  const unsigned char* asleep = rod->work.sphere_asleep;
-  return rod->work.asleep_count > 0 && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
+static inline int segments_asleep(const unsigned char* asleep, int a, int b) {
+  return asleep && (asleep[a] & asleep[a + 1] & asleep[b] & asleep[b + 1]) == VSC_ASLEEP_DEEP;
 }
 
 // Keep the contact of segments a < b if their closest points, at parameters s and t with d
 // from b's point to a's (m) and `distance` its length (m), lie within the tube's radii.
 static void self_contact(pass* p, int a, int b, double s, double t, const double d[3], double distance) {
-  vsc_rod* rod = p->rod;
-  const double* v = rod->work.sphere_velocity;
+  const vsc_rod* rod = p->rod;
+  const double* v = p->velocity;
   double ra = rod->def.radius, rb = ra;
   if (rod->tapered) {  // the tube's radius at the closest points
     const double* R = rod->sphere_radius;
@@ -159,10 +162,10 @@ static void self_contact(pass* p, int a, int b, double s, double t, const double
 
 static void self_pair(void* context, int earlier, int item) {
   pass* p = (pass*)context;
-  vsc_rod* rod = p->rod;
+  const vsc_rod* rod = p->rod;
   int a = earlier < item ? earlier : item, b = earlier < item ? item : earlier;
   if (b - a < rod->self_gap) return;  // neighbours along the axis
-  if (segments_asleep(rod, a, b)) return;
+  if (segments_asleep(p->asleep, a, b)) return;
   if (p->segment) {
     // testing every pair (no lists): a cheap exact rejection first, segments within
     // 2r of each other have midpoints within 2r + half of each length (the lists'
@@ -173,7 +176,7 @@ static void self_pair(void* context, int earlier, int item) {
     if (gap2 >= reach * reach) return;
   }
   double s, t, d[3];
-  double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &s, &t, d);
+  double distance = vsc_segment_gap(p->x, a, b, &s, &t, d);
   self_contact(p, a, b, s, t, d, distance);
 }
 
@@ -216,8 +219,8 @@ static void flush_self_batch(pass* p, self_batch* batch) {
 }
 
 static void batch_self_pair(pass* p, self_batch* batch, int a, int b) {
-  if (segments_asleep(p->rod, a, b)) return;
-  const double* x = p->rod->work.sphere_xyz;
+  if (segments_asleep(p->asleep, a, b)) return;
+  const double* x = p->x;
   int i = batch->count++;
   batch->a[i] = a;
   batch->b[i] = b;
@@ -233,12 +236,12 @@ static void batch_self_pair(pass* p, self_batch* batch, int a, int b) {
 // Narrow phase of sphere i against geom p->geom.
 static void sphere_geom(void* context, int i) {
   pass* p = (pass*)context;
-  vsc_rod* rod = p->rod;
+  const vsc_rod* rod = p->rod;
   const vsc_geom* geom = &p->world->geoms[p->geom];
   // a sleeping sphere on a static geom stays as it was; a moving body's geom still pushes it
-  if (rod->work.asleep_count > 0 && rod->work.sphere_asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
+  if (p->asleep && p->asleep[i] == VSC_ASLEEP_DEEP && geom->is_static) return;
   double r = rod->sphere_radius[i];
-  const double* x = rod->work.sphere_xyz + 3 * i;
+  const double* x = p->x + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
     double reach = geom->bound_radius + r;
@@ -262,7 +265,7 @@ static void sphere_geom(void* context, int i) {
   }
   double geom_velocity[3];
   vsc_geom_point_velocity(geom, found->point, geom_velocity);
-  const double* v = rod->work.sphere_velocity + 3 * i;
+  const double* v = p->velocity + 3 * i;
   for (int c = 0; c < 3; ++c) found->relative[c] = v[c] - geom_velocity[c];
   keep(p, found);
 }
@@ -270,7 +273,8 @@ static void sphere_geom(void* context, int i) {
 // The force of a found contact: its normal push and friction on the rod, the
 // reaction on the geom, the touch record friction reads.
 static void push(pass* p, const found_contact* found) {
-  vsc_rod* rod = p->rod;
+  const vsc_rod* rod = p->rod;
+  double* touch = p->state->touch.record;
   const double* scale = p->damping_scale;
   double f[3], tangent[3], c = rod->def.contact_damping;
   int a = found->a, b = found->b;
@@ -289,7 +293,7 @@ static void push(pass* p, const found_contact* found) {
                        found->point[2] - geom->position[2]};
       vsc_wrench_add(geom_wrench + 6 * b, -p->context->wrench_weight, f, NULL, arm);
     }
-    vsc_record_touch(rod->work.touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
+    vsc_record_touch(touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_RIGID, b, normal, geom->friction, found->n, tangent,
                      0.0, 0.0);
     ++p->contacts;
     return;
@@ -314,7 +318,7 @@ static void push(pass* p, const found_contact* found) {
   vsc_place_add_at_sphere(rod, b, share, p->Q);
   for (int k = 0; k < 3; ++k) share[k] = -t * f[k];
   vsc_place_add_at_sphere(rod, b + 1, share, p->Q);
-  vsc_record_touch(rod->work.touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
+  vsc_record_touch(touch + VSC_TOUCH_SIZE * a + VSC_TOUCH_SELF, b, normal, mu, found->n, tangent, s, t);
   ++p->contacts;
 }
 
@@ -324,13 +328,11 @@ static void push(pass* p, const found_contact* found) {
 #define SKIP_SLACK (1.0 + 1e-9)
 
 // Find every contact of this evaluation (keep()).
-static void find_contacts(pass* p) {
-  vsc_rod* rod = p->rod;
+static void find_contacts(pass* p, const vsc_contact_lists* l, int listed, int all_asleep) {
+  const vsc_rod* rod = p->rod;
   const vsc_world* world = p->world;
   int spheres = rod->def.collision_sphere_count;
-  vsc_contact_lists* l = rod->work.lists;
-  if (!vsc_contact_lists_refresh(rod, world)) {  // a list overflowed: this evaluation tests everything directly
-    if (rod->def.self_collision) vsc_contact_lists_update_segments(rod);
+  if (!listed) {  // a list overflowed: this evaluation tests everything directly
     p->segment = l->segment;
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
       for (int b = a + rod->self_gap; b + 1 < spheres; ++b) self_pair(p, a, b);
@@ -340,8 +342,7 @@ static void find_contacts(pass* p) {
     }
     return;
   }
-  reserve(rod, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
-  int all_asleep = rod->work.asleep_count == rod->n;  // then only moving bodies' geoms can touch it
+  reserve(p->state, (rod->def.self_collision ? l->self_count : 0) + l->geom_count);  // the most the lists can find
   if (rod->def.self_collision && !all_asleep) {
     double contact = 2.0 * rod->radius_max * SKIP_SLACK;
     const double* moved = l->segment_moved;
@@ -366,24 +367,40 @@ static void find_contacts(pass* p) {
   }
 }
 
-int vsc_rod_add_contact_forces(const vsc_step_context* context, double* Q) {
-  vsc_rod* rod = context->rod;
-  pass p = {context, rod, context->world, Q, 0, -1, NULL, NULL};
-  vsc_touch_clear(rod);
-  rod->work.found_count = 0;
-  find_contacts(&p);
+int vsc_contact_add_forces(const vsc_step_context* context, vsc_contact_pass* state, const vsc_contact_lists* lists,
+                           int listed, const vsc_placement* placement, const vsc_sleep_flags* sleep, double* Q) {
+  const vsc_rod* rod = context->rod;
+  int sleeping = sleep && sleep->asleep_count > 0;
+  pass p = {context,  rod, state, placement->sphere_xyz, placement->sphere_velocity, sleeping ? sleep->sphere_asleep : NULL,
+            context->world, Q, 0, -1, NULL, NULL};
+  vsc_touch_clear(rod, &state->touch);
+  state->touch.current = 1;
+  state->found_count = 0;
+  // a rod asleep everywhere: only moving bodies' geoms can touch it
+  find_contacts(&p, lists, listed, sleeping && sleep->asleep_count == rod->n);
   // in a step, the damping limited where it adds up past its explicit limit (none in a lone evaluation)
-  if (vsc_contact_load_limit_damping(rod, context->substep, context->damping_limit))
-    p.damping_scale = rod->work.damping_scale;
-  const found_contact* found = (const found_contact*)rod->work.found;
-  for (int k = 0; k < rod->work.found_count; ++k) push(&p, &found[k]);
+  if (vsc_contact_load_limit_damping(rod, &state->load, context->substep, context->damping_limit))
+    p.damping_scale = state->load.damping_scale;
+  const found_contact* found = (const found_contact*)state->found;
+  for (int k = 0; k < state->found_count; ++k) push(&p, &found[k]);
   return p.contacts;
 }
 
-void vsc_rod_visit_contacts(const vsc_rod* rod,
-                            void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data) {
-  const found_contact* found = (const found_contact*)rod->work.found;
-  for (int k = 0; k < rod->work.found_count; ++k) {
+void vsc_contact_forget(vsc_contact_pass* state) {
+  state->touch.current = 0;
+  state->found_count = 0;
+}
+
+void vsc_contact_pass_free(vsc_contact_pass* state) {
+  free(state->found);
+  state->found = NULL;
+  state->found_count = state->found_capacity = 0;
+}
+
+void vsc_contact_visit(const vsc_contact_pass* state,
+                       void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data) {
+  const found_contact* found = (const found_contact*)state->found;
+  for (int k = 0; k < state->found_count; ++k) {
     const double* r = found[k].relative;
     visit(data, found[k].rigid, found[k].a, found[k].b, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), found[k].depth);
   }
@@ -397,10 +414,11 @@ static double spring_energy(const vsc_rod* rod, double depth, double radius) {
 }
 
 // Penalty potential of one sphere-geom candidate (J), and the deepest rigid contact.
-static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int g, int i, vsc_deepest_contact* deepest) {
+static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, const double* xyz, int g, int i,
+                                 vsc_deepest_contact* deepest) {
   const vsc_geom* geom = &world->geoms[g];
   double r = rod->sphere_radius[i], n[3];
-  const double* x = rod->work.sphere_xyz + 3 * i;
+  const double* x = xyz + 3 * i;
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
     double reach = geom->bound_radius + r;
@@ -416,10 +434,10 @@ static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, int
   return spring_energy(rod, depth, r);
 }
 
-static double self_pair_energy(const vsc_rod* rod, int a, int b) {
+static double self_pair_energy(const vsc_rod* rod, const double* x, int a, int b) {
   if (b - a < rod->self_gap) return 0.0;
   double s, t, d[3];
-  double distance = vsc_segment_gap(rod->work.sphere_xyz, a, b, &s, &t, d);
+  double distance = vsc_segment_gap(x, a, b, &s, &t, d);
   double ra = rod->def.radius, rb = ra;
   if (rod->tapered) {
     const double* R = rod->sphere_radius;
@@ -429,30 +447,28 @@ static double self_pair_energy(const vsc_rod* rod, int a, int b) {
   return depth > 0.0 ? spring_energy(rod, depth, 0.5 * (ra + rb)) : 0.0;
 }
 
-double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest) {
+double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* x, const vsc_contact_lists* lists,
+                          vsc_deepest_contact* deepest) {
   if (deepest) {
     deepest->depth = 0.0;
     deepest->geom = deepest->sphere = -1;
   }
   if (world->geom_count <= 0 && !rod->def.self_collision) return 0.0;
   int spheres = rod->def.collision_sphere_count;
-  vsc_rod_update_spheres(rod, q, NULL);
-  vsc_contact_lists* l = rod->work.lists;
-  // the same candidate lists as the forces (rebuilt here if stale), so the
-  // energy costs one narrow phase; the touch records are left alone
-  int listed = vsc_contact_lists_refresh(rod, world);
   double energy = 0.0;
-  if (!listed) {  // a list overflowed: test everything
+  // the forces' candidate lists where they still cover x, so the energy costs one narrow phase;
+  // else every pair, in the lists' order: the same terms in the same order, the same bits
+  if (!lists || !vsc_contact_lists_cover(lists, rod, x, world)) {
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
-      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) energy += self_pair_energy(rod, a, b);
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) energy += self_pair_energy(rod, x, a, b);
     for (int g = 0; g < world->geom_count; ++g)
-      for (int i = 0; i < spheres; ++i) energy += sphere_geom_energy(rod, world, g, i, deepest);
+      for (int i = 0; i < spheres; ++i) energy += sphere_geom_energy(rod, world, x, g, i, deepest);
     return energy;
   }
+  const vsc_contact_lists* l = lists;
   for (int k = 0; k < l->self_count && rod->def.self_collision; ++k)
-    energy += self_pair_energy(rod, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+    energy += self_pair_energy(rod, x, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
   for (int k = 0; k < l->geom_count; ++k)
-    energy += sphere_geom_energy(rod, world, l->geom_pairs[2 * k], l->geom_pairs[2 * k + 1], deepest);
+    energy += sphere_geom_energy(rod, world, x, l->geom_pairs[2 * k], l->geom_pairs[2 * k + 1], deepest);
   return energy;
 }
-

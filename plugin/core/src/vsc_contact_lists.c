@@ -33,6 +33,10 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
   vsc_contact_lists* l = (vsc_contact_lists*)calloc(1, sizeof(vsc_contact_lists));
   if (!l) return NULL;
   l->sphere_count = spheres;
+  if (vsc_grid_create(spheres, &l->grid) != VSC_OK) {
+    free(l);
+    return NULL;
+  }
   l->self_capacity = SELF_PAIRS_PER_SPHERE * spheres;
   l->geom_capacity = GEOM_PAIRS_PER_SPHERE * spheres;
   l->self_pairs = (int*)malloc(sizeof(int) * 2 * (size_t)l->self_capacity);
@@ -66,6 +70,7 @@ vsc_contact_lists* vsc_contact_lists_create(int spheres) {
 
 void vsc_contact_lists_destroy(vsc_contact_lists* l) {
   if (!l) return;
+  vsc_grid_destroy(l->grid);
   free(l->self_pairs);
   free(l->self_distance);
   free(l->geom_pairs);
@@ -120,7 +125,9 @@ static void sort_pairs(int* pairs, int count) {
 }
 
 typedef struct build {
-  vsc_rod* rod;
+  const vsc_rod* rod;
+  vsc_contact_lists* l;
+  const double* x;  // the placed sphere centres (m)
   const vsc_world* world;
   int geom;
   double reach;   // sphere-geom candidate distance, r + m (m)
@@ -133,9 +140,9 @@ typedef struct build {
 // others cannot touch before the lists are rebuilt; overlapping grid boxes alone
 // admit several times more pairs.
 static void keep_self(build* b, int lo, int hi) {
-  vsc_contact_lists* l = b->rod->work.lists;
+  vsc_contact_lists* l = b->l;
   double s, t, d[3], limit = (2.0 + VSC_CONTACT_MARGIN) * b->rod->radius_max;
-  double distance = vsc_segment_gap(b->rod->work.sphere_xyz, lo, hi, &s, &t, d);
+  double distance = vsc_segment_gap(b->x, lo, hi, &s, &t, d);
   if (distance > limit) return;
   if (l->self_count >= l->self_capacity) {
     b->overflow = 1;
@@ -164,8 +171,8 @@ static double filter_distance(const vsc_geom* geom, const double* x, double moti
 
 static void collect_geom(void* context, int i) {
   build* b = (build*)context;
-  vsc_contact_lists* l = b->rod->work.lists;
-  double distance = filter_distance(&b->world->geoms[b->geom], b->rod->work.sphere_xyz + 3 * i, b->motion);
+  vsc_contact_lists* l = b->l;
+  double distance = filter_distance(&b->world->geoms[b->geom], b->x + 3 * i, b->motion);
   if (distance > b->reach) return;
   if (l->geom_count >= l->geom_capacity) {
     b->overflow = 1;
@@ -184,13 +191,13 @@ static void collect_geom(void* context, int i) {
 // the margin from the snapshot (so at most moved(snapshot -> now) + m / 2 from now) and this
 // geom moves less than m / 2 from here: it stays beyond r. The same bound keeps the skip filter
 // of a stored distance less the sphere's motion since the snapshot valid.
-static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int count) {
-  vsc_contact_lists* l = rod->work.lists;
+static int collect_geom_alone(const vsc_rod* rod, vsc_contact_lists* l, const double* xyz, const vsc_world* world, int g,
+                              int count) {
   const vsc_geom* geom = &world->geoms[g];
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, reach = r + margin;
   for (int i = 0; i < spheres; ++i) {
-    const double* x = rod->work.sphere_xyz + 3 * i;
+    const double* x = xyz + 3 * i;
     double widened = reach + l->geom_moved[i];
     if (geom->bound_radius > 0.0) {  // the box test of a whole build, widened alike
       double w = r + 0.5 * margin + l->geom_moved[i];
@@ -213,14 +220,13 @@ static int collect_geom_alone(vsc_rod* rod, const vsc_world* world, int g, int c
 // Rebuild the stale geoms' pairs alone (geom_stale), keeping every other geom's, in the
 // list's order (geom, then sphere): what a whole build would test, found in the same
 // order. Returns 0 if the list overflowed.
-static int rebuild_stale_geoms(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->work.lists;
+static int rebuild_stale_geoms(const vsc_rod* rod, vsc_contact_lists* l, const double* x, const vsc_world* world) {
   int count = 0, k = 0;
   for (int g = 0; g < world->geom_count; ++g) {
     int first = k;
     while (k < l->geom_count && l->geom_pairs[2 * k] == g) ++k;
     if (l->geom_stale[g]) {
-      count = collect_geom_alone(rod, world, g, count);
+      count = collect_geom_alone(rod, l, x, world, g, count);
       if (count < 0) return 0;
       double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
       memcpy(pose, world->geoms[g].position, sizeof(double) * 3);
@@ -243,10 +249,10 @@ static int rebuild_stale_geoms(vsc_rod* rod, const vsc_world* world) {
 
 static void no_pair(void* context, int earlier, int item) { (void)context; (void)earlier; (void)item; }
 
-void vsc_contact_lists_update_segments(vsc_rod* rod) {
-  const double* x = rod->work.sphere_xyz;
+// Midpoint and half length of every segment (m) into l->segment, from the placed spheres x.
+static void update_segments(const vsc_rod* rod, vsc_contact_lists* l, const double* x) {
   for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a) {
-    double* out = rod->work.lists->segment + 4 * a;
+    double* out = l->segment + 4 * a;
     double length2 = 0.0;
     for (int c = 0; c < 3; ++c) {
       out[c] = 0.5 * (x[3 * a + c] + x[3 * a + 3 + c]);
@@ -258,8 +264,8 @@ void vsc_contact_lists_update_segments(vsc_rod* rod) {
 
 // The same pairs as build_self_direct, by testing every pair in order: for a pile with more
 // candidates than the list holds pairs (the list may still hold those that touch).
-static void build_self_every_pair(vsc_rod* rod, build* b) {
-  const double* mx = rod->work.lists->build_scratch;
+static void build_self_every_pair(const vsc_rod* rod, build* b) {
+  const double* mx = b->l->build_scratch;
   int segments = rod->def.collision_sphere_count - 1;
   const double *my = mx + segments, *mz = my + segments, *half = mz + segments;
   for (int a = 0; a < segments && !b->overflow; ++a)
@@ -277,9 +283,9 @@ static void build_self_every_pair(vsc_rod* rod, build* b) {
 // A pile's cells at the pair reach hold dozens of segments, where a grid pass costs more.
 // The candidates are then put in (a, c) order, so the pairs and their distances are those, in
 // the order, that testing every pair would find.
-static void build_self_direct(vsc_rod* rod, build* b) {
-  vsc_contact_lists* l = rod->work.lists;
-  vsc_contact_lists_update_segments(rod);
+static void build_self_direct(const vsc_rod* rod, build* b) {
+  vsc_contact_lists* l = b->l;
+  update_segments(rod, l, b->x);
   int segments = rod->def.collision_sphere_count - 1;
   double limit = (2.0 + VSC_CONTACT_MARGIN) * rod->radius_max;
   const double* seg = l->segment;  // midpoints and half lengths, current
@@ -373,11 +379,10 @@ static void build_self_direct(vsc_rod* rod, build* b) {
 
 // The self pairs: segments within 2r + m, with their distances. Returns 0 if
 // the list overflowed (the caller then evaluates without lists).
-static int build_self(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->work.lists;
+static int build_self(const vsc_rod* rod, vsc_contact_lists* l, const double* x, const vsc_world* world) {
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
-  build b = {rod, world, -1, r + margin, margin, 0};
+  build b = {rod, l, x, world, -1, r + margin, margin, 0};
   l->self_count = 0;
   if (spheres <= DIRECT_BUILD_SPHERES) {
     build_self_direct(rod, &b);
@@ -385,25 +390,25 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
     double longest = 0.0;
     for (int k = 0; k + 1 < spheres; ++k)
       for (int a = 0; a < 3; ++a)
-        longest = fmax(longest, fabs(rod->work.sphere_xyz[3 * k + 3 + a] - rod->work.sphere_xyz[3 * k + a]));
-    vsc_grid_begin(rod->work.grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
+        longest = fmax(longest, fabs(x[3 * k + 3 + a] - x[3 * k + a]));
+    vsc_grid_begin(l->grid, (longest + 2.0 * inflated) * (1.0 + 1e-6));
     for (int k = 0; k + 1 < spheres; ++k) {
-      const double* x0 = rod->work.sphere_xyz + 3 * k;
+      const double* x0 = x + 3 * k;
       const double* x1 = x0 + 3;
       double lo[3], hi[3];
       for (int a = 0; a < 3; ++a) {
         lo[a] = fmin(x0[a], x1[a]) - inflated;
         hi[a] = fmax(x0[a], x1[a]) + inflated;
       }
-      vsc_grid_insert(rod->work.grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
+      vsc_grid_insert(l->grid, k, lo, hi, collect_self, &b);  // boxes under a cell: cannot fail
     }
     sort_pairs(l->self_pairs, l->self_count);
     for (int k = 0; k < l->self_count; ++k) {  // the distances, in the sorted order
       double s, t, d[3];
-      l->self_distance[k] = vsc_segment_gap(rod->work.sphere_xyz, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
+      l->self_distance[k] = vsc_segment_gap(x, l->self_pairs[2 * k], l->self_pairs[2 * k + 1], &s, &t, d);
     }
   }
-  memcpy(l->sphere_xyz, rod->work.sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  memcpy(l->sphere_xyz, x, sizeof(double) * 3 * (size_t)spheres);
   l->self_built = !b.overflow;
   return l->self_built;
 }
@@ -412,24 +417,23 @@ static int build_self(vsc_rod* rod, const vsc_world* world) {
 // sphere in its box (no hashing); else a grid pass over sphere boxes, then a
 // query per geom. Built apart from the self pairs, so a tool moving through a
 // resting bowel costs only this. Returns 0 if the list overflowed.
-static int build_geoms(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->work.lists;
+static int build_geoms(const vsc_rod* rod, vsc_contact_lists* l, const double* xyz, const vsc_world* world) {
   int spheres = rod->def.collision_sphere_count;
   double r = rod->radius_max, margin = VSC_CONTACT_MARGIN * r, inflated = r + 0.5 * margin;
-  build b = {rod, world, -1, r + margin, margin, 0};
+  build b = {rod, l, xyz, world, -1, r + margin, margin, 0};
   l->geom_count = 0;
   double rod_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   int direct = spheres <= DIRECT_BUILD_SPHERES;
-  if (!direct) vsc_grid_begin(rod->work.grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
+  if (!direct) vsc_grid_begin(l->grid, 2.0 * inflated * (1.0 + 1e-6));  // a hair above a box: <= 2 cells per axis
   for (int i = 0; i < spheres; ++i) {
-    const double* x = rod->work.sphere_xyz + 3 * i;
+    const double* x = xyz + 3 * i;
     double lo[3] = {x[0] - inflated, x[1] - inflated, x[2] - inflated};
     double hi[3] = {x[0] + inflated, x[1] + inflated, x[2] + inflated};
     for (int a = 0; a < 3; ++a) {
       rod_box[a] = lo[a] < rod_box[a] ? lo[a] : rod_box[a];
       rod_box[3 + a] = hi[a] > rod_box[3 + a] ? hi[a] : rod_box[3 + a];
     }
-    if (!direct) vsc_grid_insert(rod->work.grid, i, lo, hi, no_pair, &b);
+    if (!direct) vsc_grid_insert(l->grid, i, lo, hi, no_pair, &b);
   }
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
@@ -445,13 +449,13 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
         visited = 0;
         if (lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])
           for (int i = 0; i < spheres; ++i) {
-            const double* x = rod->work.sphere_xyz + 3 * i;
+            const double* x = xyz + 3 * i;
             if (x[0] + inflated >= lo[0] && x[0] - inflated <= hi[0] && x[1] + inflated >= lo[1] &&
                 x[1] - inflated <= hi[1] && x[2] + inflated >= lo[2] && x[2] - inflated <= hi[2])
               collect_geom(&b, i);
           }
       } else {
-        visited = vsc_grid_query(rod->work.grid, lo, hi, 8 * spheres, collect_geom, &b);
+        visited = vsc_grid_query(l->grid, lo, hi, 8 * spheres, collect_geom, &b);
       }
     }
     if (visited < 0)  // unbounded (planes), or a box over more cells than spheres: test all
@@ -459,10 +463,10 @@ static int build_geoms(vsc_rod* rod, const vsc_world* world) {
     if (!direct) {  // grid order: sort, then the distances in that order
       sort_pairs(l->geom_pairs + 2 * first, l->geom_count - first);
       for (int k = first; k < l->geom_count; ++k)
-        l->geom_distance[k] = filter_distance(geom, rod->work.sphere_xyz + 3 * l->geom_pairs[2 * k + 1], b.motion);
+        l->geom_distance[k] = filter_distance(geom, xyz + 3 * l->geom_pairs[2 * k + 1], b.motion);
     }
   }
-  memcpy(l->geom_sphere_xyz, rod->work.sphere_xyz, sizeof(double) * 3 * (size_t)spheres);
+  memcpy(l->geom_sphere_xyz, xyz, sizeof(double) * 3 * (size_t)spheres);
   if (world->geom_count > l->built_geom_capacity) {
     double* poses = (double*)realloc(l->geom_pose, sizeof(double) * (VSC_GEOM_POSE_SIZE + 1) * (size_t)world->geom_count);
     if (!poses) return 0;
@@ -496,10 +500,10 @@ VSC_VECTOR_CLONES static void distances_moved(const double* restrict x, const do
 
 // Distance each sphere moved from `snapshot` (3 per sphere) into `moved`;
 // returns 1 while none moved by more than half the margin.
-static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* moved) {
+static int sphere_moves(const vsc_rod* rod, const double* x, const double* snapshot, double* moved) {
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   int spheres = rod->def.collision_sphere_count;
-  distances_moved(rod->work.sphere_xyz, snapshot, moved, spheres);
+  distances_moved(x, snapshot, moved, spheres);
   double most = 0.0;
   for (int i = 0; i < spheres; ++i) most = moved[i] > most ? moved[i] : most;
   return most <= half;  // NaN: never valid
@@ -507,9 +511,8 @@ static int sphere_moves(const vsc_rod* rod, const double* snapshot, double* move
 
 // The self pairs still hold every possible self-contact while no sphere moved
 // by half the margin since they were built.
-static int self_valid(const vsc_rod* rod) {
-  vsc_contact_lists* l = rod->work.lists;
-  if (!l->self_built || !sphere_moves(rod, l->sphere_xyz, l->moved)) return 0;
+static int self_valid(const vsc_rod* rod, vsc_contact_lists* l, const double* x) {
+  if (!l->self_built || !sphere_moves(rod, x, l->sphere_xyz, l->moved)) return 0;
   for (int a = 0; a + 1 < rod->def.collision_sphere_count; ++a)
     l->segment_moved[a] = l->moved[a] > l->moved[a + 1] ? l->moved[a] : l->moved[a + 1];
   return 1;
@@ -524,10 +527,9 @@ static int self_valid(const vsc_rod* rod) {
 // build. Writes each geom's surface motion bound after the poses, and marks
 // the geoms past it stale (geom_stale). Returns 1 if none is, 2 if a few are
 // (rebuild those alone: rebuild_stale_geoms), 0 if a whole build is due.
-static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->work.lists;
+static int geoms_valid(const vsc_rod* rod, vsc_contact_lists* l, const double* x, const vsc_world* world) {
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms) return 0;
-  if (!sphere_moves(rod, l->geom_sphere_xyz, l->geom_moved)) return 0;
+  if (!sphere_moves(rod, x, l->geom_sphere_xyz, l->geom_moved)) return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   int stale = 0;
   for (int g = 0; g < world->geom_count; ++g) {
@@ -555,15 +557,15 @@ static int geoms_valid(const vsc_rod* rod, const vsc_world* world) {
   return rebuilds_geoms_alone(rod->def.collision_sphere_count) && stale <= STALE_GEOMS_SHARE * world->geom_count ? 2 : 0;
 }
 
-int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
-  vsc_contact_lists* l = rod->work.lists;
+int vsc_contact_lists_refresh(const vsc_rod* rod, vsc_contact_lists* l, const double* x, const vsc_world* world) {
   int self_fresh = 0, geoms_fresh = 0, spheres = rod->def.collision_sphere_count;
-  int self_ok = !rod->def.self_collision || self_valid(rod) || (self_fresh = 1, build_self(rod, world));
-  int geoms_state = geoms_valid(rod, world);
-  int geoms_ok = geoms_state == 1 || (geoms_state == 2 && rebuild_stale_geoms(rod, world)) ||
-                 (geoms_fresh = 1, build_geoms(rod, world));
-  if (!self_ok || !geoms_ok) {  // a list overflowed (an extreme pile)
+  int self_ok = !rod->def.self_collision || self_valid(rod, l, x) || (self_fresh = 1, build_self(rod, l, x, world));
+  int geoms_state = geoms_valid(rod, l, x, world);
+  int geoms_ok = geoms_state == 1 || (geoms_state == 2 && rebuild_stale_geoms(rod, l, x, world)) ||
+                 (geoms_fresh = 1, build_geoms(rod, l, x, world));
+  if (!self_ok || !geoms_ok) {  // a list overflowed (an extreme pile): the narrow phase tests every pair
     l->self_built = l->geoms_built = 0;
+    if (rod->def.self_collision) update_segments(rod, l, x);
     return 0;
   }
   // just built: nothing moved since
@@ -573,6 +575,36 @@ int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world) {
     if (world->geom_count > 0)  // (no geoms: no poses allocated)
       memset(l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity, 0,
              sizeof(double) * (size_t)world->geom_count);
+  }
+  return 1;
+}
+
+// 1 if every sphere of x lies within half the margin of `snapshot` (3 per sphere); no writes.
+static int spheres_within(const vsc_rod* rod, const double* x, const double* snapshot) {
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
+  for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
+    double dx = x[3 * i] - snapshot[3 * i], dy = x[3 * i + 1] - snapshot[3 * i + 1], dz = x[3 * i + 2] - snapshot[3 * i + 2];
+    if (!(sqrt(dx * dx + dy * dy + dz * dz) <= half)) return 0;
+  }
+  return 1;
+}
+
+int vsc_contact_lists_cover(const vsc_contact_lists* l, const vsc_rod* rod, const double* x, const vsc_world* world) {
+  if (rod->def.self_collision && !(l->self_built && spheres_within(rod, x, l->sphere_xyz))) return 0;
+  if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms ||
+      !spheres_within(rod, x, l->geom_sphere_xyz))
+    return 0;
+  double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
+  for (int g = 0; g < world->geom_count; ++g) {  // as geoms_valid: no geom past half the margin
+    const vsc_geom* geom = &world->geoms[g];
+    const double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
+    double moved = 0.0, turned = 0.0, grown = 0.0;
+    for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
+    for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
+    for (int a = 0; a < 3; ++a) grown += fabs(geom->size[a] - pose[12 + a]);
+    if (geom->bound_radius > 0.0 ? !(sqrt(moved) + geom->bound_radius * sqrt(turned) + grown <= half)
+                                 : (moved != 0.0 || turned != 0.0 || grown != 0.0))
+      return 0;
   }
   return 1;
 }

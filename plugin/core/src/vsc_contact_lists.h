@@ -1,6 +1,6 @@
-// The candidate contact lists of one rod (owned by the rod): which segment
-// pairs and which sphere-geom pairs the narrow phase tests, and how far their
-// parts moved since the lists were built.
+// The broad phase: the candidate contact lists of one rod (its stage state,
+// owned by this module): which segment pairs and which sphere-geom pairs the
+// narrow phase tests, and how far their parts moved since they were built.
 #ifndef VISCERA_SRC_VSC_CONTACT_LISTS_H
 #define VISCERA_SRC_VSC_CONTACT_LISTS_H
 
@@ -18,6 +18,7 @@
 
 struct vsc_contact_lists {
   int sphere_count;
+  vsc_grid* grid;             // sphere grid for chains past the direct build's range, cell = 2 (radius + margin / 2)
   int self_count, self_capacity;
   int* self_pairs;            // candidate sphere pairs a < b, sorted (2 per pair)
   double* self_distance;      // each self pair's segment distance at the build (m)
@@ -56,16 +57,19 @@ void vsc_contact_lists_destroy(vsc_contact_lists* lists);
 /// Heap bytes vsc_contact_lists_create(sphere_count) allocates.
 double vsc_contact_lists_memory_bytes(int sphere_count);
 
-/// Make the lists hold every pair that can touch at the rod's placed spheres
-/// (rod->work.sphere_xyz must be current) and the world's geom poses: keep them
-/// while nothing moved by half the margin, else rebuild. Writes how far each
-/// part moved since the build (segment_moved, geom_moved, the geoms' shifts).
-/// Returns 1, or 0 if a list overflowed (an extreme pile: the caller then tests
-/// every pair; the lists are rebuilt next time).
-int vsc_contact_lists_refresh(vsc_rod* rod, const vsc_world* world);
+/// The broad phase of an evaluation: make the lists hold every pair that can
+/// touch at the placed sphere centres x (m, 3 per sphere) and the world's
+/// geom poses: keep them while nothing moved by half the margin, else
+/// rebuild. Writes how far each part moved since the build (segment_moved,
+/// geom_moved, the geoms' shifts). Returns 1, or 0 if a list overflowed (an
+/// extreme pile: the narrow phase then tests every pair, with each segment's
+/// midpoint and half length in `segment`; the lists are rebuilt next time).
+int vsc_contact_lists_refresh(const vsc_rod* rod, vsc_contact_lists* lists, const double* x, const vsc_world* world);
 
-/// Midpoint and half length of every segment into lists->segment (m), from
-/// the placed spheres.
-void vsc_contact_lists_update_segments(vsc_rod* rod);
+/// 1 if the lists, as they stand, hold every pair that can touch at sphere
+/// centres x (m) and the world's geom poses (nothing moved past half the
+/// margin since their builds); 0 if they would need a rebuild. Writes nothing:
+/// the divergence guard's energy query reads them so.
+int vsc_contact_lists_cover(const vsc_contact_lists* lists, const vsc_rod* rod, const double* x, const vsc_world* world);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_LISTS_H

@@ -23,9 +23,9 @@ static int add_rows(const vsc_rod* rod, const double* load, double* row) {
   return touched;
 }
 
-void vsc_contact_load_prepare(vsc_rod* rod) {
+void vsc_contact_load_prepare(vsc_rod* rod, vsc_contact_load* contact_load) {
   int n = rod->n, spheres = rod->def.collision_sphere_count;
-  double* load = rod->work.contact_load;
+  double* load = contact_load->stiffness;
   double* row = load + spheres;
   double* inverse_mass = row + n;
   for (int k = 0; k < n; ++k)  // pinned points do not move: no bound there
@@ -40,17 +40,17 @@ void vsc_contact_load_prepare(vsc_rod* rod) {
   }
   for (int s = 0; s < spheres; ++s) load[s] = 0.0;
   rod->contact_load_unit = unit;
-  rod->work.contact_load_bound = 0.0;
+  contact_load->bound = 0.0;
 }
 
-int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit) {
+int vsc_contact_load_limit_damping(const vsc_rod* rod, vsc_contact_load* contact_load, double h, double limit) {
   int n = rod->n, spheres = rod->def.collision_sphere_count;
-  double* load = rod->work.contact_load;
+  double* load = contact_load->stiffness;
   double* row = load + spheres;
   const double* inverse_mass = row + n;
   // gamma h per unit of load: the damping is c / k of the stiffness, both per contact
   double per_load = rod->def.contact_damping / rod->def.contact_stiffness * h;
-  rod->work.contact_load_bound = 0.0;
+  contact_load->bound = 0.0;
   // first a bound of the bound, from the most loaded sphere: below the limit, the
   // ordinary case, nothing is limited and the rows need not be summed
   double most = 0.0;
@@ -65,7 +65,7 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit) {
     row[k] *= per_load * inverse_mass[k];  // now the bound on gamma h at control point k
     peak = row[k] > peak ? row[k] : peak;
   }
-  rod->work.contact_load_bound = peak;
+  contact_load->bound = peak;
   int limited = peak > limit;
   for (int s = 0; s < spheres && limited; ++s) {
     double scale = 1.0;
@@ -75,10 +75,8 @@ int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit) {
       if (bound > limit && limit / bound < scale)
         scale = limit / bound;
     }
-    rod->work.damping_scale[s] = scale;
+    contact_load->damping_scale[s] = scale;
   }
   memset(load, 0, sizeof(double) * (size_t)(spheres + n));
   return limited;
 }
-
-double vsc_contact_load_last_bound(const vsc_rod* rod) { return rod->work.contact_load_bound; }

@@ -34,27 +34,34 @@
 #include "viscera/vsc_integrate.h"
 #include "vsc_rod.h"
 
-/// Set rod->contact_load_unit: the largest Gershgorin row of B' B over the
-/// lumped mass (1/kg, B the spheres' basis rows), the bound one unit of
-/// stiffness at every sphere gives. At creation, after the mass matrix.
-void vsc_contact_load_prepare(vsc_rod* rod);
+/// The contact pass's load (vsc_contact.h's pass holds it).
+typedef struct vsc_contact_load {
+  double* stiffness;      ///< per sphere, the pass's stiffness (N/m), zero between passes, then per
+                          ///< control point its Gershgorin row (n), then the inverse lumped masses
+                          ///< (n, 1/kg; 0 where pinned; set at creation)
+  double* damping_scale;  ///< per sphere, the factor (<= 1) on its contacts' damping in a limited pass
+  double bound;           ///< the last pass's largest bound on gamma h
+} vsc_contact_load;
+
+/// Set the inverse lumped masses in `load` and rod->contact_load_unit: the
+/// largest Gershgorin row of B' B over the lumped mass (1/kg, B the spheres'
+/// basis rows), the bound one unit of stiffness at every sphere gives. At
+/// creation, after the mass matrix.
+void vsc_contact_load_prepare(vsc_rod* rod, vsc_contact_load* load);
 
 /// Add a contact's stiffness (N/m) to `sphere`'s load, weighted by the
 /// sphere's share of the contact times the contact's total share (1 against a
 /// geom; 2 between two segments, each side summing to 1): its row in the
 /// Gershgorin sum of the contact's matrix k J' n n' J.
-static inline void vsc_contact_load_add(vsc_rod* rod, int sphere, double stiffness) {
-  rod->work.contact_load[sphere] += stiffness;
+static inline void vsc_contact_load_add(vsc_contact_load* load, int sphere, double stiffness) {
+  load->stiffness[sphere] += stiffness;
 }
 
 /// After a contact pass at substep h (s): 1 if its damping bound exceeds
 /// `limit` (gamma h, the scheme's: VSC_CONTACT_DAMPING_LIMIT or
-/// VSC_KICK_DAMPING_LIMIT) somewhere; then rod->work.damping_scale holds, per
+/// VSC_KICK_DAMPING_LIMIT) somewhere; then load->damping_scale holds, per
 /// sphere, the factor (<= 1) on its contacts' damping. 0 otherwise. Clears the
 /// load either way. O(spheres): below the limit, one pass for the most loaded sphere.
-int vsc_contact_load_limit_damping(vsc_rod* rod, double h, double limit);
-
-/// The last vsc_contact_load_limit_damping's largest bound on gamma h (for tests and tools).
-double vsc_contact_load_last_bound(const vsc_rod* rod);
+int vsc_contact_load_limit_damping(const vsc_rod* rod, vsc_contact_load* load, double h, double limit);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_LOAD_H

@@ -1,6 +1,6 @@
 // The step context: what one step of one rod carries through its stages and
 // mutates on its own account, apart from the host's world (viscera/vsc_world.h)
-// and the rod's caches (vsc_rod.h). vsc_rod_step makes one per step on the
+// and the stages' own state (vsc_rod.h's vsc_rod_stages). vsc_rod_step makes one per step on the
 // stack; vsc_rod_forces makes one for a lone evaluation.
 #ifndef VISCERA_SRC_VSC_CONTEXT_H
 #define VISCERA_SRC_VSC_CONTEXT_H
@@ -9,7 +9,7 @@
 #include "vsc_rod.h"
 
 typedef struct vsc_step_context {
-  vsc_rod* rod;
+  const vsc_rod* rod;      ///< the rod (its definition and caches read only)
   const vsc_world* world;  ///< the host's inputs (read only)
   const vsc_reactions* reactions;  ///< where the reactions go (never NULL; its members may be)
   double* stick;           ///< friction state, VSC_STICK_SIZE per sphere (NULL: none; vsc_friction.h)
@@ -23,6 +23,8 @@ typedef struct vsc_step_context {
   double damping_limit;    ///< the bound on a pile's gamma h the contact pass keeps to: the
                            ///< scheme's (vsc_contact_load.h)
   int length_implicit;     ///< 1: the kick takes the global length term implicitly (vsc_schemes.c)
+  double* rest;            ///< the host's rest records, VSC_REST_SIZE per point, where points sleep this
+                           ///< step (NULL: none does): the evaluation keeps the edge points' loads there
 } vsc_step_context;
 
 /// The reactions of a caller that wants none: every member NULL, nothing written.

@@ -26,11 +26,11 @@ VSC_VECTOR_CLONES static void edge_vectors(const double* restrict x, const doubl
 
 // Vectors and lengths of the springs from sample a to a + gap (N - gap of
 // them) into edge_*; returns the sum of their lengths (m).
-static double spring_edges(vsc_rod* rod, int gap) {
+static double spring_edges(const vsc_rod* rod, vsc_elastic_scratch* s, int gap) {
   int count = rod->sample_count - gap;
-  edge_vectors(rod->work.sample_x, rod->work.sample_y, rod->work.sample_z, rod->work.edge_x, rod->work.edge_y, rod->work.edge_z,
-               rod->work.edge_length, count, gap);
-  const double* el = rod->work.edge_length;
+  edge_vectors(s->sample_x, s->sample_y, s->sample_z, s->edge_x, s->edge_y, s->edge_z,
+               s->edge_length, count, gap);
+  const double* el = s->edge_length;
   double total = 0.0;  // apart and in order: an ordered sum does not vectorise
   for (int a = 0; a < count; ++a) total += el[a];
   return total;
@@ -62,22 +62,22 @@ VSC_VECTOR_CLONES static void scale_edges_each(double* restrict ex, double* rest
 // Turn the edges into tension vectors (k (l - rest) + extra) e / l in place
 // (N); `section` (NULL: 1 for all) scales each spring's k. The tiny addend
 // keeps a zero-length spring finite: its vector is zero.
-static void spring_tensions(vsc_rod* rod, int count, double k, const double* section, double rest, double extra) {
+static void spring_tensions(vsc_elastic_scratch* s, int count, double k, const double* section, double rest, double extra) {
   if (section)
-    scale_edges_each(rod->work.edge_x, rod->work.edge_y, rod->work.edge_z, rod->work.edge_length, section, count, k, rest, extra);
+    scale_edges_each(s->edge_x, s->edge_y, s->edge_z, s->edge_length, section, count, k, rest, extra);
   else
-    scale_edges(rod->work.edge_x, rod->work.edge_y, rod->work.edge_z, rod->work.edge_length, count, k, rest, extra);
+    scale_edges(s->edge_x, s->edge_y, s->edge_z, s->edge_length, count, k, rest, extra);
 }
 
 // f_a += t_a - t_{a-gap}: a stretched spring pulls its first sample forwards
 // and its last one back. `first`: f starts from zero, written here (no
 // clearing pass). Each element sums in the same order as two separate passes
 // would: (f_a + t_a) - t_{a-gap}, with f_a = 0.0 when first.
-static void add_spring_forces(vsc_rod* rod, int gap, int first) {
+static void add_spring_forces(const vsc_rod* rod, vsc_elastic_scratch* s, int gap, int first) {
   int N = rod->sample_count, count = N - gap;
-  // distinct blocks of rod->work.scratch (restrict: the loops vectorise)
-  const double *restrict tx = rod->work.edge_x, *restrict ty = rod->work.edge_y, *restrict tz = rod->work.edge_z;
-  double *restrict fx = rod->work.force_x, *restrict fy = rod->work.force_y, *restrict fz = rod->work.force_z;
+  // distinct blocks of the scratch (restrict: the loops vectorise)
+  const double *restrict tx = s->edge_x, *restrict ty = s->edge_y, *restrict tz = s->edge_z;
+  double *restrict fx = s->force_x, *restrict fy = s->force_y, *restrict fz = s->force_z;
   int low = gap < count ? gap : count, high = gap > count ? gap : count;
   // [0, low): + only; [gap, count): both; [count, gap): neither; [high, N): - only
   if (first) {
@@ -118,13 +118,13 @@ static void add_spring_forces(vsc_rod* rod, int gap, int first) {
 
 // Curvature bending on the sample polyline (see vsc_rod.h): adds its forces
 // F = -dE/dp to force_* if `forces`; returns its energy (J).
-static double curvature_bending(vsc_rod* rod, int forces) {
+static double curvature_bending(const vsc_rod* rod, vsc_elastic_scratch* s, int forces) {
   int N = rod->sample_count;
   double k0 = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
   if (!(k0 > 0.0) || N < 3) return 0.0;
   const double* section = rod->curvature_scale;  // NULL untapered
-  const double *x = rod->work.sample_x, *y = rod->work.sample_y, *z = rod->work.sample_z;
-  double *fx = rod->work.force_x, *fy = rod->work.force_y, *fz = rod->work.force_z;
+  const double *x = s->sample_x, *y = s->sample_y, *z = s->sample_z;
+  double *fx = s->force_x, *fy = s->force_y, *fz = s->force_z;
   for (int a = 1; a + 1 < N; ++a) {
     double u[3] = {x[a] - x[a - 1], y[a] - y[a - 1], z[a] - z[a - 1]};
     double w[3] = {x[a + 1] - x[a], y[a + 1] - y[a], z[a + 1] - z[a]};
@@ -177,28 +177,28 @@ static double curvature_bending(vsc_rod* rod, int forces) {
 }
 
 // Elastic sample forces -dE/dp into force_* (samples must be current).
-static void elastic_sample_forces(vsc_rod* rod) {
+static void elastic_sample_forces(const vsc_rod* rod, vsc_elastic_scratch* s) {
   int N = rod->sample_count;
   // stretch springs and the global term: dE_g/dl = K_g (l - length) is a
   // tension shared by every stretch spring
-  double length = spring_edges(rod, 1);
+  double length = spring_edges(rod, s, 1);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
-  spring_tensions(rod, N - 1, rod->stretch_spring, rod->stretch_scale, rod->rest_spacing, global_tension);
-  add_spring_forces(rod, 1, 1);  // clears the forces first
+  spring_tensions(s, N - 1, rod->stretch_spring, rod->stretch_scale, rod->rest_spacing, global_tension);
+  add_spring_forces(rod, s, 1, 1);  // clears the forces first
   if (rod->bend_spring > 0.0 && N > 2) {
-    spring_edges(rod, 2);
-    spring_tensions(rod, N - 2, rod->bend_spring, rod->bend_scale, 2.0 * rod->rest_spacing, 0.0);
-    add_spring_forces(rod, 2, 0);
+    spring_edges(rod, s, 2);
+    spring_tensions(s, N - 2, rod->bend_spring, rod->bend_scale, 2.0 * rod->rest_spacing, 0.0);
+    add_spring_forces(rod, s, 2, 0);
   }
-  curvature_bending(rod, 1);
+  curvature_bending(rod, s, 1);
 }
 
 // Virtual work as a gather: Q_k += sum over samples a of b_k(s_a) F_a, each
 // control point reading its own contiguous range of samples; one asleep deep
 // is held still and unwatched, so its forces are not needed (vsc_sleep.h).
-static void gather_to_control(const vsc_rod* rod, double* Q) {
-  const double *fx = rod->work.force_x, *fy = rod->work.force_y, *fz = rod->work.force_z;
-  const unsigned char* asleep = rod->work.asleep_count > 0 ? rod->work.asleep : NULL;
+static void gather_to_control(const vsc_rod* rod, const vsc_elastic_scratch* s, const unsigned char* asleep,
+                              double* Q) {
+  const double *fx = s->force_x, *fy = s->force_y, *fz = s->force_z;
   for (int k = 0; k < rod->n; ++k) {
     if (asleep && asleep[k] == VSC_ASLEEP_DEEP) continue;
     int a0 = rod->gather_first[k], count = rod->gather_count[k];
@@ -223,24 +223,25 @@ VSC_VECTOR_CLONES static void edge_differences(const double* restrict u, double*
   g[samples - 1] = u[samples - 2];
 }
 
-void vsc_rod_length_gradient(vsc_rod* rod, double* gradient) {
+void vsc_elastic_length_gradient(const vsc_rod* rod, vsc_elastic_scratch* s, const unsigned char* asleep,
+                                 double* gradient) {
   int N = rod->sample_count;
-  spring_edges(rod, 1);
-  double* u[3] = {rod->work.edge_x, rod->work.edge_y, rod->work.edge_z};
-  const double* el = rod->work.edge_length;
+  spring_edges(rod, s, 1);
+  double* u[3] = {s->edge_x, s->edge_y, s->edge_z};
+  const double* el = s->edge_length;
   for (int c = 0; c < 3; ++c)  // unit edges (a collapsed one has no direction)
     for (int a = 0; a + 1 < N; ++a) u[c][a] = el[a] > 0.0 ? u[c][a] / el[a] : 0.0;
   // the sample forces were gathered in the evaluation: their arrays hold dl/dp, gathered as forces are
-  edge_differences(u[0], rod->work.force_x, N);
-  edge_differences(u[1], rod->work.force_y, N);
-  edge_differences(u[2], rod->work.force_z, N);
+  edge_differences(u[0], s->force_x, N);
+  edge_differences(u[1], s->force_y, N);
+  edge_differences(u[2], s->force_z, N);
   memset(gradient, 0, sizeof(double) * 3 * (size_t)rod->n);
-  gather_to_control(rod, gradient);
+  gather_to_control(rod, s, asleep, gradient);
 }
 
-double vsc_rod_length(vsc_rod* rod, const double* q) {
-  vsc_rod_update_samples(rod, q);
-  return spring_edges(rod, 1);
+double vsc_elastic_length(const vsc_rod* rod, vsc_elastic_scratch* s, const double* q) {
+  vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
+  return spring_edges(rod, s, 1);
 }
 
 // Mesentery tether i: from the axis at abscissa (i + 1/2) / count to the
@@ -267,25 +268,33 @@ static double mesentery(const vsc_rod* rod, const double* q, double* Q) {
   return energy;
 }
 
-void vsc_rod_add_elastic_forces(vsc_rod* rod, const double* q, double* Q) {
-  elastic_sample_forces(rod);
-  gather_to_control(rod, Q);
+void vsc_elastic_add_forces(const vsc_rod* rod, vsc_elastic_scratch* s, const unsigned char* asleep, const double* q,
+                            double* Q) {
+  vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
+  elastic_sample_forces(rod, s);
+  gather_to_control(rod, s, asleep, Q);
   mesentery(rod, q, Q);
 }
 
-double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
-  vsc_rod_update_samples(rod, q);
+void vsc_elastic_scratch_carve(vsc_elastic_scratch* s, double* block, int N) {
+  double** arrays[10] = {&s->sample_x, &s->sample_y, &s->sample_z, &s->force_x,  &s->force_y,
+                         &s->force_z,  &s->edge_x,   &s->edge_y,   &s->edge_z,   &s->edge_length};
+  for (int i = 0; i < 10; ++i) *arrays[i] = block + (size_t)i * (size_t)N;
+}
+
+double vsc_elastic_energy(const vsc_rod* rod, vsc_elastic_scratch* s, const double* q) {
+  vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
   int N = rod->sample_count;
-  double e = 0.0, dl = spring_edges(rod, 1) - rod->def.length;
+  double e = 0.0, dl = spring_edges(rod, s, 1) - rod->def.length;
   for (int a = 0; a + 1 < N; ++a) {
-    double d = rod->work.edge_length[a] - rod->rest_spacing;
+    double d = s->edge_length[a] - rod->rest_spacing;
     e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
   }
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, 0);
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, s, 0);
   if (N > 2) {
-    spring_edges(rod, 2);
+    spring_edges(rod, s, 2);
     for (int a = 0; a + 2 < N; ++a) {
-      double d = rod->work.edge_length[a] - 2.0 * rod->rest_spacing;
+      double d = s->edge_length[a] - 2.0 * rod->rest_spacing;
       e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
     }
   }

@@ -1,23 +1,11 @@
 // The rod's mechanical energies (see viscera/vsc_energy.h).
-#include "viscera/vsc_energy.h"
-#include "vsc_rod.h"
-
-#include <string.h>
+#include "vsc_energy.h"
 
 #include "viscera/vsc_band.h"
-#include "vsc_elastic.h"
 
-double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
-  size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
-  double* known_q = rod->work.energy_state;
-  double* known_v = known_q + 3 * rod->n;
-  if (rod->work.energy_known && memcmp(known_q, q, bytes) == 0 && memcmp(known_v, v, bytes) == 0)
-    return rod->work.energy_active;  // the step's end, now the next step's start
-  rod->work.energy_active = vsc_rod_kinetic_energy(rod, v) + vsc_rod_elastic_energy(rod, q);
-  memcpy(known_q, q, bytes);
-  memcpy(known_v, v, bytes);
-  rod->work.energy_known = 1;
-  return rod->work.energy_active;
+double vsc_energy_active(const vsc_rod* rod, vsc_elastic_scratch* elastic, double* mass_times_v, const double* q,
+                         const double* v) {
+  return vsc_energy_kinetic(rod, v, mass_times_v) + vsc_elastic_energy(rod, elastic, q);
 }
 
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q) {
@@ -27,7 +15,7 @@ double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const
   return e;
 }
 
-double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
+double vsc_energy_kinetic(const vsc_rod* rod, const double* v, double* Mv) {
   if (rod->def.lumped_mass) {
     double e = 0.0;
     for (int k = 0; k < rod->n; ++k) {
@@ -36,7 +24,6 @@ double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
     }
     return e;
   }
-  double* Mv = rod->work.stage;  // scratch
   vsc_band_multiply3(rod->mass_band, rod->n, v, Mv);
   double e = 0.0;
   for (int i = 0; i < 3 * rod->n; ++i) e += 0.5 * v[i] * Mv[i];

@@ -45,17 +45,17 @@ static void update_slot(double* slot, const double* touch, const double unseen[3
   }
 }
 
-void vsc_rod_update_stick(const vsc_rod* rod, double* stick, double h, const double* velocity_change) {
-  if (!rod->work.touched) {  // no contact was looked for: none holds
+void vsc_rod_update_stick(const vsc_rod* rod, const vsc_touch_records* records, const unsigned char* asleep,
+                          double* stick, double h, const double* velocity_change) {
+  if (!records->current) {  // no contact was looked for: none holds
     vsc_stick_clear(stick, rod->def.collision_sphere_count);
     return;
   }
   double k = rod->def.contact_stiffness;
   int spheres = rod->def.collision_sphere_count;
-  const unsigned char* asleep = rod->work.asleep_count > 0 ? rod->work.sphere_asleep : NULL;
   for (int i = 0; i < spheres; ++i) {
     if (asleep && asleep[i]) continue;  // a sleeping sphere's springs keep their stretch until it wakes
-    const double* touch = rod->work.touch + VSC_TOUCH_SIZE * i;
+    const double* touch = records->record + VSC_TOUCH_SIZE * i;
     const double* rigid = touch + VSC_TOUCH_RIGID;
     double unseen[3] = {0.0, 0.0, 0.0};
     if (velocity_change && rigid[VSC_TOUCH_PARTNER] >= 0.0) vsc_basis_point(&rod->sphere_basis[i], velocity_change, unseen);

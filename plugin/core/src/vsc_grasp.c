@@ -25,14 +25,15 @@ void vsc_rod_add_grasp_forces(const vsc_step_context* context, const double* q, 
   }
 }
 
-double vsc_rod_nearest_abscissa(vsc_rod* rod, const double* q, const double point[3], double* abscissa) {
-  vsc_rod_update_samples(rod, q);
+double vsc_rod_nearest_abscissa(const vsc_rod* rod, const double* q, const double point[3], double* abscissa) {
   int N = rod->sample_count;
-  double best = INFINITY, best_s = 0.0;
+  double best = INFINITY, best_s = 0.0, next[3];
+  vsc_rod_sample_point(rod, q, 0, next);
   for (int a = 0; a + 1 < N; ++a) {
-    double e[3] = {rod->work.sample_x[a + 1] - rod->work.sample_x[a], rod->work.sample_y[a + 1] - rod->work.sample_y[a],
-                   rod->work.sample_z[a + 1] - rod->work.sample_z[a]};
-    double w[3] = {point[0] - rod->work.sample_x[a], point[1] - rod->work.sample_y[a], point[2] - rod->work.sample_z[a]};
+    double here[3] = {next[0], next[1], next[2]};
+    vsc_rod_sample_point(rod, q, a + 1, next);
+    double e[3] = {next[0] - here[0], next[1] - here[1], next[2] - here[2]};
+    double w[3] = {point[0] - here[0], point[1] - here[1], point[2] - here[2]};
     double ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
     double t = ee > 0.0 ? (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) / ee : 0.0;
     t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);

@@ -1,14 +1,12 @@
 // Band force Jacobians (see vsc_jacobian.h): sample-level blocks first, then
 // projected onto control points through the spline basis.
-#include "viscera/vsc_jacobian.h"
+#include "vsc_jacobian.h"
 
 #include <math.h>
 #include <string.h>
 
 #include "viscera/vsc_grasp.h"
 #include "vsc_place.h"
-#include "vsc_rod.h"
-#include "vsc_touch.h"
 
 // Entry (row, col), row >= col, of a wide band of half-width w.
 #define BAND(band, w, row, col) (band)[(size_t)((w) + 1) * (size_t)(row) + (size_t)((w) + (col) - (row))]
@@ -82,40 +80,40 @@ static void multiply(const double A[9], const double B[9], double c, double out[
 }
 
 // Sample-level blocks: S(a + d, a) at sample_hessian + 27 a + 9 d, d = 0..2.
-static double* sample_block(vsc_rod* rod, int row, int col) { return rod->work.sample_hessian + 27 * col + 9 * (row - col); }
+static double* sample_block(vsc_jacobian_scratch* j, int row, int col) { return j->sample_hessian + 27 * col + 9 * (row - col); }
 
-static void add_sample(vsc_rod* rod, int row, int col, double c, const double H[9]) {
-  double* S = sample_block(rod, row, col);
+static void add_sample(vsc_jacobian_scratch* j, int row, int col, double c, const double H[9]) {
+  double* S = sample_block(j, row, col);
   for (int i = 0; i < 9; ++i) S[i] += c * H[i];
 }
 
 // A two-sample element of Hessian [[H, -H], [-H, H]] between samples a < b.
-static void add_pair(vsc_rod* rod, int a, int b, const double H[9]) {
-  add_sample(rod, a, a, 1.0, H);
-  add_sample(rod, b, b, 1.0, H);
-  add_sample(rod, b, a, -1.0, H);
+static void add_pair(vsc_jacobian_scratch* j, int a, int b, const double H[9]) {
+  add_sample(j, a, a, 1.0, H);
+  add_sample(j, b, b, 1.0, H);
+  add_sample(j, b, a, -1.0, H);
 }
 
-static double edge(const vsc_rod* rod, int a, int b, double e[3]) {
-  e[0] = rod->work.sample_x[b] - rod->work.sample_x[a];
-  e[1] = rod->work.sample_y[b] - rod->work.sample_y[a];
-  e[2] = rod->work.sample_z[b] - rod->work.sample_z[a];
+static double edge(const vsc_jacobian_scratch* j, int a, int b, double e[3]) {
+  e[0] = j->sample_x[b] - j->sample_x[a];
+  e[1] = j->sample_y[b] - j->sample_y[a];
+  e[2] = j->sample_z[b] - j->sample_z[a];
   return sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
 }
 
 // Elastic sample blocks; returns the global term's tension (N). Samples must be current.
-static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_samples) {
+static double elastic_sample_hessian(const vsc_rod* rod, vsc_jacobian_scratch* j, double* global_gradient_samples) {
   int N = rod->sample_count;
   double l0 = rod->rest_spacing, H[9], e[3];
-  memset(rod->work.sample_hessian, 0, sizeof(double) * 27 * (size_t)N);
+  memset(j->sample_hessian, 0, sizeof(double) * 27 * (size_t)N);
   double length = 0.0;
-  for (int a = 0; a + 1 < N; ++a) length += edge(rod, a, a + 1, e);
+  for (int a = 0; a + 1 < N; ++a) length += edge(j, a, a + 1, e);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
   if (global_gradient_samples) memset(global_gradient_samples, 0, sizeof(double) * 3 * (size_t)N);
   for (int a = 0; a + 1 < N; ++a) {
-    double l = edge(rod, a, a + 1, e), k = rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0);
+    double l = edge(j, a, a + 1, e), k = rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0);
     spring_hessian(e, l, k, k * (l - l0) + global_tension, H);
-    add_pair(rod, a, a + 1, H);
+    add_pair(j, a, a + 1, H);
     if (global_gradient_samples && l > 0.0)  // dl/dp: -e/l at the first sample, +e/l at the second
       for (int c = 0; c < 3; ++c) {
         global_gradient_samples[3 * a + c] -= e[c] / l;
@@ -124,9 +122,9 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
   }
   if (rod->bend_spring > 0.0)
     for (int a = 0; a + 2 < N; ++a) {
-      double l = edge(rod, a, a + 2, e), k = rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0);
+      double l = edge(j, a, a + 2, e), k = rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0);
       spring_hessian(e, l, k, k * (l - 2.0 * l0), H);
-      add_pair(rod, a, a + 2, H);
+      add_pair(j, a, a + 2, H);
     }
   double k0 = rod->def.bending_rigidity / l0;
   if (!(k0 > 0.0)) return global_tension;
@@ -134,7 +132,7 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
   for (int a = 1; a + 1 < N; ++a) {
     double k = section ? k0 * section[a] : k0;
     double u[3], v[3], X[9], Y[9], XY[9], T[9];
-    double lu = edge(rod, a - 1, a, u), lv = edge(rod, a, a + 1, v);
+    double lu = edge(j, a - 1, a, u), lv = edge(j, a, a + 1, v);
     if (!(lu > 0.0) || !(lv > 0.0)) continue;
     unit_derivative(u, lu, X);  // d(u/|u|)/du, symmetric, and X X = X / |u| (a projector over |u|)
     unit_derivative(v, lv, Y);
@@ -147,37 +145,37 @@ static double elastic_sample_hessian(vsc_rod* rod, double* global_gradient_sampl
     transpose(YX, XY);
     // J = (X, -(X + Y), Y) for samples a - 1, a, a + 1; blocks k J_i J_j
     for (int i = 0; i < 9; ++i) T[i] = XX[i] + YY[i] + XY[i] + YX[i];
-    add_sample(rod, a - 1, a - 1, k, XX);
-    add_sample(rod, a, a, k, T);
-    add_sample(rod, a + 1, a + 1, k, YY);
+    add_sample(j, a - 1, a - 1, k, XX);
+    add_sample(j, a, a, k, T);
+    add_sample(j, a + 1, a + 1, k, YY);
     for (int i = 0; i < 9; ++i) T[i] = XX[i] + YX[i];  // (X + Y) X
-    add_sample(rod, a, a - 1, -k, T);
+    add_sample(j, a, a - 1, -k, T);
     for (int i = 0; i < 9; ++i) T[i] = YX[i] + YY[i];  // Y (X + Y)
-    add_sample(rod, a + 1, a, -k, T);
-    add_sample(rod, a + 1, a - 1, k, YX);
+    add_sample(j, a + 1, a, -k, T);
+    add_sample(j, a + 1, a - 1, k, YX);
   }
   int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
   for (int end = 0; end < 2; ++end) {
     if (!clamped[end]) continue;
     int a = end ? N - 2 : 0;
     double k = section ? k0 * section[end ? N - 1 : 0] : k0;
-    double l = edge(rod, a, a + 1, e), P[9];
+    double l = edge(j, a, a + 1, e), P[9];
     if (!(l > 0.0)) continue;
     unit_derivative(e, l, P);  // 2k (I - e e^T / l^2) / l^2 = 2k P P
     multiply(P, P, 2.0 * k, H);
-    add_pair(rod, a, a + 1, H);
+    add_pair(j, a, a + 1, H);
   }
   return global_tension;
 }
 
 // Project the sample blocks onto control points: K(k, l) = sum b_k(a) b_l(b) S(a, b).
-static void project_samples(vsc_rod* rod, double c, double* band) {
+static void project_samples(const vsc_rod* rod, vsc_jacobian_scratch* j, double c, double* band) {
   int N = rod->sample_count, w = rod->jacobian_half_width;
   for (int a = 0; a < N; ++a) {
     const vsc_basis* ba = &rod->sample_basis[a];
     for (int d = 0; d < 3 && a + d < N; ++d) {
       const vsc_basis* bd = &rod->sample_basis[a + d];
-      const double* H = sample_block(rod, a + d, a);
+      const double* H = sample_block(j, a + d, a);
       double Ht[9], sum[9];
       transpose(H, Ht);
       for (int i = 0; i < 9; ++i) sum[i] = H[i] + Ht[i];
@@ -202,13 +200,22 @@ static void project_samples(vsc_rod* rod, double c, double* band) {
   }
 }
 
-void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q, double stiffness_weight,
-                          double damping_weight, double* band, double* global_gradient) {
+void vsc_jacobian_scratch_carve(vsc_jacobian_scratch* j, double* block, int N) {
+  j->sample_hessian = block;
+  j->sample_x = block + 27 * (size_t)N;
+  j->sample_y = j->sample_x + N;
+  j->sample_z = j->sample_y + N;
+  j->gradient_samples = j->sample_z + N;
+}
+
+void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* j, const vsc_touch_records* touch,
+                      const vsc_world* world, const double* q, double stiffness_weight, double damping_weight,
+                      double* band, double* global_gradient) {
   int w = rod->jacobian_half_width, n = rod->n;
-  vsc_rod_update_samples(rod, q);
-  double* gradient_samples = global_gradient ? rod->work.edge_x : NULL;  // 3N fits in edge_x..edge_z
-  elastic_sample_hessian(rod, gradient_samples);
-  project_samples(rod, stiffness_weight, band);
+  vsc_place_samples(rod, q, j->sample_x, j->sample_y, j->sample_z);
+  double* gradient_samples = global_gradient ? j->gradient_samples : NULL;
+  elastic_sample_hessian(rod, j, gradient_samples);
+  project_samples(rod, j, stiffness_weight, band);
   if (global_gradient) {
     memset(global_gradient, 0, sizeof(double) * 3 * (size_t)n);
     for (int a = 0; a < rod->sample_count; ++a) {
@@ -234,15 +241,16 @@ void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q,
     add_at_basis(band, w, &b, stiffness_weight * grasp->stiffness + damping_weight * grasp->damping, identity);
   }
   double k = d->contact_stiffness, c = d->contact_damping, normal[3];
-  for (int i = 0; i < d->collision_sphere_count && world->geom_count > 0; ++i) {
-    if (vsc_rod_rigid_touch(rod, i, normal) < 0) continue;
+  for (int i = 0; i < d->collision_sphere_count && world->geom_count > 0 && touch; ++i) {
+    if (vsc_touch_rigid(touch, i, normal) < 0) continue;
     for (int r = 0; r < 3; ++r)
       for (int s = 0; s < 3; ++s) H[3 * r + s] = normal[r] * normal[s];
     add_at_basis(band, w, &rod->sphere_basis[i], stiffness_weight * k + damping_weight * c, H);
   }
 }
 
-void vsc_rod_add_damping_force(const vsc_rod* rod, const vsc_world* world, const double* v, double* out) {
+void vsc_jacobian_add_damping_force(const vsc_rod* rod, const vsc_touch_records* touch, const vsc_world* world,
+                                    const double* v, double* out) {
   int n = rod->n;
   for (int g = 0; g < world->grasp_count; ++g) {
     const vsc_grasp* grasp = &world->grasps[g];
@@ -253,8 +261,8 @@ void vsc_rod_add_damping_force(const vsc_rod* rod, const vsc_world* world, const
       for (int c = 0; c < 3; ++c) out[3 * (b.first + j) + c] += b.weight[j] * grasp->damping * velocity[c];
   }
   double normal[3];
-  for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0; ++i) {
-    if (vsc_rod_rigid_touch(rod, i, normal) < 0) continue;
+  for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0 && touch; ++i) {
+    if (vsc_touch_rigid(touch, i, normal) < 0) continue;
     const vsc_basis* b = &rod->sphere_basis[i];
     double velocity[3];
     vsc_basis_point(b, v, velocity);

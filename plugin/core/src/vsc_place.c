@@ -2,8 +2,7 @@
 // the first stage of every evaluation (see viscera/vsc_place.h).
 #include "vsc_place.h"
 
-void vsc_rod_update_samples(vsc_rod* rod, const double* q) {
-  double *x = rod->work.sample_x, *y = rod->work.sample_y, *z = rod->work.sample_z;
+void vsc_place_samples(const vsc_rod* rod, const double* q, double* x, double* y, double* z) {
   for (int a = 0; a < rod->sample_count; ++a) {
     const vsc_basis* b = &rod->sample_basis[a];
     const double* p = q + 3 * b->first;
@@ -22,8 +21,16 @@ void vsc_rod_sphere_points(const vsc_rod* rod, const double* q, const double* v,
   }
 }
 
-void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v) {
-  vsc_rod_sphere_points(rod, q, v, rod->work.sphere_xyz, rod->work.sphere_velocity);
+void vsc_place_spheres(const vsc_rod* rod, const double* q, const double* v, vsc_placement* placement) {
+  vsc_rod_sphere_points(rod, q, v, placement->sphere_xyz, placement->sphere_velocity);
+}
+
+void vsc_rod_sample_point(const vsc_rod* rod, const double* q, int a, double out[3]) {
+  // as vsc_place_samples, the same bits
+  const vsc_basis* b = &rod->sample_basis[a];
+  const double* p = q + 3 * b->first;
+  double w0 = b->weight[0], w1 = b->weight[1], w2 = b->weight[2], w3 = b->weight[3];
+  for (int c = 0; c < 3; ++c) out[c] = w0 * p[c] + w1 * p[3 + c] + w2 * p[6 + c] + w3 * p[9 + c];
 }
 
 void vsc_rod_add_sphere_force(const vsc_rod* rod, int sphere, const double f[3], double* Q) {

@@ -1,6 +1,7 @@
-// Rod creation: its definition's defaults and checks, the mass matrix, the
-// basis tables and the arrays it owns (placement is in vsc_place.c, the forces
-// in vsc_forces.c).
+// The rod handle: its definition's defaults and checks, the mass matrix, the
+// basis tables, the arrays it owns with each stage's state carved from them;
+// and the public queries that hand a stage its state (the evaluation is in
+// vsc_forces.c, the step in vsc_step.c).
 #include "vsc_rod.h"
 
 #include <math.h>
@@ -10,9 +11,23 @@
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_friction.h"
-#include "vsc_contact_lists.h"
-#include "vsc_contact_load.h"
-#include "vsc_touch.h"
+#include "vsc_contact.h"
+#include "vsc_elastic.h"
+#include "vsc_energy.h"
+#include "vsc_place.h"
+#include "vsc_schemes.h"
+#include "vsc_sleep.h"
+#include "vsc_step.h"
+
+// Every stage's state, in one piece of the rod's block.
+typedef struct stage_states {
+  vsc_placement placement;
+  vsc_elastic_scratch elastic;
+  vsc_contact_pass contact;
+  vsc_sleep_flags sleep;
+  vsc_scheme_scratch scheme;
+  vsc_step_backup backup;
+} stage_states;
 
 
 vsc_rod_def vsc_default_rod_def(void) {
@@ -225,15 +240,16 @@ enum {
   ARRAY_MASS_FACTOR,     // 4 n
   ARRAY_MASS_ROW_SUM,    // n
   ARRAY_GATHER_WEIGHT,   // n (4 S + 1): each sample feeds 4 control points, so the transpose holds 4 N <= n (4 S + 1)
-  ARRAY_SCRATCH,         // 10 N: sample_x .. edge_length
+  ARRAY_STAGE_STATES,    // the stages' structs (stage_states)
+  ARRAY_ELASTIC,         // 10 N: the elastic pass's sample_x .. edge_length
   ARRAY_SPHERE_XYZ,      // 3 per sphere
   ARRAY_SPHERE_VELOCITY, // 3 per sphere
   ARRAY_SPHERE_RADIUS,   // 1 per sphere
   ARRAY_STAGE,           // 8 x 3n
-  ARRAY_SAMPLE_HESSIAN,  // 27 N
+  ARRAY_JACOBIAN,        // 33 N: the implicit step's Jacobian scratch
   ARRAY_SYSTEM,          // 3n x (half width + 1), at the half width's bound
   ARRAY_FACTOR_ROW,      // half width + 1
-  ARRAY_BACKUP,          // q, v (3n each), the friction state, then energy_state (6n)
+  ARRAY_BACKUP,          // the step's backup and the energy queries' scratch (VSC_STEP_BACKUP_DOUBLES)
   ARRAY_TOUCH,           // VSC_TOUCH_SIZE per sphere
   ARRAY_CONTACT_LOAD,    // 1 per sphere, then 2n
   ARRAY_DAMPING_SCALE,   // 1 per sphere
@@ -260,15 +276,16 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_MASS_FACTOR] = 4.0 * n * d;
   bytes[ARRAY_MASS_ROW_SUM] = n * d;
   bytes[ARRAY_GATHER_WEIGHT] = n * (4.0 * S + 1.0) * d;
-  bytes[ARRAY_SCRATCH] = 10.0 * N * d;
+  bytes[ARRAY_STAGE_STATES] = sizeof(stage_states);
+  bytes[ARRAY_ELASTIC] = 10.0 * N * d;
   bytes[ARRAY_SPHERE_XYZ] = 3.0 * spheres * d;
   bytes[ARRAY_SPHERE_VELOCITY] = 3.0 * spheres * d;
   bytes[ARRAY_SPHERE_RADIUS] = spheres * d;
   bytes[ARRAY_STAGE] = 24.0 * n * d;
-  bytes[ARRAY_SAMPLE_HESSIAN] = 27.0 * N * d;
+  bytes[ARRAY_JACOBIAN] = VSC_JACOBIAN_SCRATCH_DOUBLES(N) * d;
   bytes[ARRAY_SYSTEM] = 3.0 * n * (half_width + 1.0) * d;
   bytes[ARRAY_FACTOR_ROW] = (half_width + 1.0) * d;
-  bytes[ARRAY_BACKUP] = (12.0 * n + VSC_STICK_SIZE * spheres) * d;
+  bytes[ARRAY_BACKUP] = VSC_STEP_BACKUP_DOUBLES(n, N, spheres) * d;
   bytes[ARRAY_TOUCH] = VSC_TOUCH_SIZE * spheres * d;
   bytes[ARRAY_CONTACT_LOAD] = (spheres + 2.0 * n) * d;
   bytes[ARRAY_DAMPING_SCALE] = spheres * d;
@@ -316,25 +333,36 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   rod->mass_factor = (double*)AT(ARRAY_MASS_FACTOR);
   rod->mass_row_sum = (double*)AT(ARRAY_MASS_ROW_SUM);
   rod->gather_weight = (double*)AT(ARRAY_GATHER_WEIGHT);
-  rod->work.scratch = (double*)AT(ARRAY_SCRATCH);
-  rod->work.sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
-  rod->work.sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
   rod->sphere_radius = (double*)AT(ARRAY_SPHERE_RADIUS);
-  rod->work.stage = (double*)AT(ARRAY_STAGE);
-  rod->work.sample_hessian = (double*)AT(ARRAY_SAMPLE_HESSIAN);
-  rod->work.system = (double*)AT(ARRAY_SYSTEM);
-  rod->work.factor_row = (double*)AT(ARRAY_FACTOR_ROW);
-  rod->work.backup = (double*)AT(ARRAY_BACKUP);
-  rod->work.touch = (double*)AT(ARRAY_TOUCH);
-  rod->work.contact_load = (double*)AT(ARRAY_CONTACT_LOAD);
-  rod->work.damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
   rod->gather_first = (int*)AT(ARRAY_GATHER_FIRST);
   rod->pinned = (int*)AT(ARRAY_PINNED);
   rod->is_pinned = (unsigned char*)AT(ARRAY_IS_PINNED);
-  rod->work.asleep = (unsigned char*)AT(ARRAY_ASLEEP);
-  rod->work.sphere_asleep = rod->work.asleep + def->control_count;
-  rod->work.moved = rod->work.sphere_asleep + def->collision_sphere_count;
-  rod->work.unbalanced = rod->work.moved + def->control_count;
+  // each stage's state
+  int n = def->control_count, spheres = def->collision_sphere_count;
+  int N = (n - 1) * def->samples_per_segment + 1;
+  stage_states* states = (stage_states*)AT(ARRAY_STAGE_STATES);
+  vsc_rod_stages* stage = &rod->stages;
+  stage->placement = &states->placement;
+  stage->placement->sphere_xyz = (double*)AT(ARRAY_SPHERE_XYZ);
+  stage->placement->sphere_velocity = (double*)AT(ARRAY_SPHERE_VELOCITY);
+  stage->elastic = &states->elastic;
+  vsc_elastic_scratch_carve(stage->elastic, (double*)AT(ARRAY_ELASTIC), N);
+  stage->contact = &states->contact;
+  stage->contact->touch.record = (double*)AT(ARRAY_TOUCH);
+  stage->contact->load.stiffness = (double*)AT(ARRAY_CONTACT_LOAD);
+  stage->contact->load.damping_scale = (double*)AT(ARRAY_DAMPING_SCALE);
+  stage->sleep = &states->sleep;
+  stage->sleep->asleep = (unsigned char*)AT(ARRAY_ASLEEP);
+  stage->sleep->sphere_asleep = stage->sleep->asleep + n;
+  stage->sleep->moved = stage->sleep->sphere_asleep + spheres;
+  stage->sleep->unbalanced = stage->sleep->moved + n;
+  stage->scheme = &states->scheme;
+  stage->scheme->stage = (double*)AT(ARRAY_STAGE);
+  stage->scheme->system = (double*)AT(ARRAY_SYSTEM);
+  stage->scheme->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
+  vsc_jacobian_scratch_carve(&stage->scheme->jacobian, (double*)AT(ARRAY_JACOBIAN), N);
+  stage->backup = &states->backup;
+  vsc_step_backup_carve(stage->backup, (double*)AT(ARRAY_BACKUP), n, N, spheres);
   if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {
     int N = (def->control_count - 1) * def->samples_per_segment + 1;
     rod->stretch_scale = (double*)AT(ARRAY_SECTION_SCALE);
@@ -368,23 +396,15 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   rod->rest_spacing = def->length / (double)(N - 1);
   rod->stretch_spring = def->stretch_stiffness * (double)(N - 1);
   rod->bend_spring = def->bend_stiffness * (double)(N - 1);
-  if (allocate_arrays(rod, def) || vsc_grid_create(spheres, &rod->work.grid) != VSC_OK ||
-      !(rod->work.lists = vsc_contact_lists_create(spheres))) {
+  if (allocate_arrays(rod, def) || !(rod->stages.broad_phase = vsc_contact_lists_create(spheres))) {
     vsc_rod_destroy(rod);
     return VSC_ERROR_OUT_OF_MEMORY;
   }
-  double* block[10];
-  for (int i = 0; i < 10; ++i) block[i] = rod->work.scratch + (size_t)i * N;
-  rod->work.sample_x = block[0]; rod->work.sample_y = block[1]; rod->work.sample_z = block[2];
-  rod->work.force_x = block[3]; rod->work.force_y = block[4]; rod->work.force_z = block[5];
-  rod->work.edge_x = block[6]; rod->work.edge_y = block[7]; rod->work.edge_z = block[8];
-  rod->work.edge_length = block[9];
   for (int i = 0; i < def->pinned_count; ++i) {
     rod->pinned[i] = def->pinned[i];
     rod->is_pinned[def->pinned[i]] = 1;
   }
   rod->def.pinned = rod->pinned;
-  rod->work.energy_state = rod->work.backup + 6 * (size_t)n + VSC_STICK_SIZE * (size_t)spheres;
   for (int a = 0; a < N; ++a) rod->sample_basis[a] = vsc_spline_basis(n, (double)a / (double)(N - 1));
   for (int i = 0; i < spheres; ++i) {
     rod->sphere_basis[i] = vsc_spline_basis(n, (double)i / (double)(spheres - 1));
@@ -419,7 +439,7 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
   double sphere_spacing = def->length / (double)(spheres - 1);
   rod->self_gap = (int)ceil(VSC_PI * rod->radius_max / sphere_spacing - 1e-9) + 1;  // tapered: the widest fold
   assemble_mass(rod);
-  vsc_contact_load_prepare(rod);
+  vsc_contact_load_prepare(rod, &rod->stages.contact->load);
   status = factor_mass(rod);
   if (status != VSC_OK) {
     vsc_rod_destroy(rod);
@@ -431,10 +451,9 @@ vsc_status vsc_rod_create(const vsc_rod_def* def, vsc_rod** out) {
 
 void vsc_rod_destroy(vsc_rod* rod) {
   if (!rod) return;
+  if (rod->stages.contact) vsc_contact_pass_free(rod->stages.contact);
+  vsc_contact_lists_destroy(rod->stages.broad_phase);
   free(rod->block);
-  free(rod->work.found);
-  vsc_grid_destroy(rod->work.grid);
-  vsc_contact_lists_destroy(rod->work.lists);
   free(rod);
 }
 
@@ -442,18 +461,49 @@ int vsc_rod_control_count(const vsc_rod* rod) { return rod->n; }
 
 int vsc_rod_sample_count(const vsc_rod* rod) { return rod->sample_count; }
 
-void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]) {
-  out[0] = rod->work.sample_x[a];
-  out[1] = rod->work.sample_y[a];
-  out[2] = rod->work.sample_z[a];
-}
-
 double vsc_rod_contact_damping_rate(const vsc_rod* rod) { return rod->contact_damping_rate; }
 
-const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->work.sphere_xyz; }
+const double* vsc_rod_sphere_centres(const vsc_rod* rod) { return rod->stages.placement->sphere_xyz; }
 
-const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->work.sphere_velocity; }
+const double* vsc_rod_sphere_velocities(const vsc_rod* rod) { return rod->stages.placement->sphere_velocity; }
 
 const double* vsc_rod_sphere_radii(const vsc_rod* rod) { return rod->sphere_radius; }
 
 int vsc_rod_jacobian_half_width(const vsc_rod* rod) { return rod->jacobian_half_width; }
+
+// The public queries: each hands one stage its state, or works on the energy
+// queries' scratch (the step's backup), so nothing an evaluation reads changes.
+
+double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
+  return vsc_elastic_energy(rod, &rod->stages.backup->energy_elastic, q);
+}
+
+double vsc_rod_length(vsc_rod* rod, const double* q) {
+  return vsc_elastic_length(rod, &rod->stages.backup->energy_elastic, q);
+}
+
+double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
+  return vsc_energy_kinetic(rod, v, rod->stages.backup->energy_mass_times_v);
+}
+
+double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
+  vsc_step_backup* b = rod->stages.backup;
+  return vsc_energy_active(rod, &b->energy_elastic, b->energy_mass_times_v, q, v);
+}
+
+double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest) {
+  double* spheres = rod->stages.backup->energy_spheres;
+  vsc_rod_sphere_points(rod, q, NULL, spheres, NULL);
+  return vsc_contact_energy(rod, world, spheres, rod->stages.broad_phase, deepest);
+}
+
+void vsc_rod_visit_contacts(const vsc_rod* rod,
+                            void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data) {
+  vsc_contact_visit(rod->stages.contact, visit, data);
+}
+
+void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q, double stiffness_weight,
+                          double damping_weight, double* band, double* global_gradient) {
+  vsc_jacobian_add(rod, &rod->stages.scheme->jacobian, &rod->stages.contact->touch, world, q, stiffness_weight,
+                   damping_weight, band, global_gradient);
+}

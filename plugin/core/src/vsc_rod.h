@@ -6,8 +6,6 @@
 #include "viscera/vsc_grid.h"
 #include "viscera/vsc_rod.h"
 
-typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact_lists.c
-
 /// A control point's sleep within a step (vsc_sleep.c): awake; asleep within
 /// VSC_SLEEP_REACH of an awake point (its forces are still evaluated, so a
 /// change in its load wakes it); asleep deeper (its elastic forces are not
@@ -15,61 +13,33 @@ typedef struct vsc_contact_lists vsc_contact_lists;  // see vsc_contact_lists.c
 /// looked for; those with moving geoms and awake segments still are).
 enum { VSC_AWAKE = 0, VSC_ASLEEP_EDGE = 1, VSC_ASLEEP_DEEP = 2 };
 
-/// What a rod's evaluations and steps write: per-evaluation scratch, the state
-/// kept across a step's attempts and between steps (the contact lists, the
-/// energy cache), and this step's sleep flags. Everything here is overwritten
-/// by the core as it goes; the rest of struct vsc_rod is fixed at creation.
-typedef struct vsc_rod_work {
-  // per evaluation; structure of arrays so the spring loops vectorise
-  double* sample_x;          ///< sample positions (N each) (m)
-  double* sample_y;
-  double* sample_z;
-  double* force_x;           ///< elastic forces on samples (N each) (N)
-  double* force_y;
-  double* force_z;
-  double* edge_x;            ///< spring vectors, then tension vectors (N each)
-  double* edge_y;
-  double* edge_z;
-  double* edge_length;       ///< spring lengths (N) (m)
-  double* scratch;           ///< the block holding sample_x .. edge_length (10 N)
-  double* sphere_xyz;        ///< collision sphere centres (3 x spheres) (m)
-  double* sphere_velocity;   ///< collision sphere velocities (3 x spheres) (m/s)
-  double* stage;             ///< integrator stages (8 x 3n)
-  double* sample_hessian;    ///< sample-level Jacobian blocks, 3 x 3 x 3 per sample (vsc_jacobian.c)
-  double* system;            ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
-  double* factor_row;        ///< factorisation scratch (jacobian_half_width + 1)
-  // contacts
-  vsc_grid* grid;            ///< sphere grid, cell = 2 (radius + margin / 2)
-  vsc_contact_lists* lists;  ///< candidate contacts, rebuilt through the grid when spheres or geoms move
-  double* touch;             ///< per sphere, the last evaluation's strongest contacts (VSC_TOUCH_SIZE each)
-  int touched;               ///< 1 if the last evaluation looked for contacts (touch is current)
-  double* contact_load;      ///< per sphere, the contact pass's stiffness (N/m), then per control point
-                             ///< its Gershgorin row (n), both zero between passes, then the inverse
-                             ///< lumped masses (n, 1/kg; 0 where pinned; set at creation) (vsc_contact_load.h)
-  double* damping_scale;     ///< per sphere, the factor (<= 1) on its contacts' damping in a limited pass
-  void* found;               ///< the contacts the pass found, before their forces (vsc_contact.c; own
-                             ///< allocation, grown as needed)
-  int found_count;           ///< contacts in `found`
-  int found_capacity;        ///< contacts `found` holds
-  double contact_load_bound; ///< the last pass's largest bound on gamma h (vsc_contact_load.h)
-  // the step
-  double* backup;            ///< the step-start state kept for retries: q, v (3n each), friction state,
-                             ///< then energy_state
-  double* energy_state;      ///< q, v (3n each) at which energy_active was computed
-  double energy_active;      ///< kinetic + elastic energy at energy_state (J)
-  int energy_known;          ///< 1 once energy_state holds a state
-  // sleep, this step's
-  unsigned char* asleep;     ///< per control point this step: VSC_AWAKE, VSC_ASLEEP_EDGE or VSC_ASLEEP_DEEP (n; vsc_sleep.c)
-  unsigned char* sphere_asleep;  ///< per sphere, the least asleep of the 4 points it depends on (spheres)
-  int asleep_count;          ///< control points asleep this step (0: the flags above are all 0, unread)
-  unsigned char* moved;      ///< 1 where control point k moved in the last step (n; vsc_sleep.c scratch)
-  unsigned char* unbalanced; ///< 1 where a sleeping edge point's forces changed this step (n)
-  double* rest;              ///< this step's rest records, borrowed from the host for the step's length
-                             ///< (VSC_REST_SIZE per point; NULL: none sleeps)
-} vsc_rod_work;
+// Each stage's state, declared by the module that owns it: only that module
+// writes it; the stages after it read it through const pointers.
+typedef struct vsc_placement vsc_placement;              // vsc_place.h: the placed spheres
+typedef struct vsc_elastic_scratch vsc_elastic_scratch;  // vsc_elastic.h: samples, edges, sample forces
+typedef struct vsc_contact_lists vsc_contact_lists;      // vsc_contact_lists.h: the broad phase
+typedef struct vsc_contact_pass vsc_contact_pass;        // vsc_contact.h: the narrow phase's contacts
+typedef struct vsc_sleep_flags vsc_sleep_flags;          // vsc_sleep.h: this step's sleeping points
+typedef struct vsc_scheme_scratch vsc_scheme_scratch;    // vsc_schemes.h: integrator stages, the system
+typedef struct vsc_step_backup vsc_step_backup;          // vsc_step.h: the step start, the guard's cache
+
+/// Where each stage's state lives: carved from the rod's one allocation at
+/// creation (the lists' and the found contacts' arrays grow on their own).
+/// Only the rod's creation, the evaluation (vsc_forces.c), the step
+/// (vsc_step.c) and the schemes (vsc_schemes.c) reach in here, to hand each
+/// stage its own.
+typedef struct vsc_rod_stages {
+  vsc_placement* placement;
+  vsc_elastic_scratch* elastic;
+  vsc_contact_lists* broad_phase;
+  vsc_contact_pass* contact;
+  vsc_sleep_flags* sleep;
+  vsc_scheme_scratch* scheme;
+  vsc_step_backup* backup;
+} vsc_rod_stages;
 
 /// A rod (viscera/vsc_rod.h): the definition and what is derived from it at
-/// creation, read only after it; and apart, in `work`, what evaluations and
+/// creation, read only after it; and apart, in `stages`, what evaluations and
 /// steps write. Owns all its arrays (one allocation, `block`).
 struct vsc_rod {
   vsc_rod_def def;           ///< copy of the definition (def.pinned points to `pinned`)
@@ -102,7 +72,7 @@ struct vsc_rod {
   double contact_load_unit;  ///< the largest row per unit stiffness at every sphere (1/kg)
   double contact_damping_rate;  ///< the stiffest contact mode's damping rate, c omega_contact^2 / k (1/s),
                                 ///< set by vsc_rod_frequencies (0 before)
-  vsc_rod_work work;         ///< what evaluations and steps write
+  vsc_rod_stages stages;     ///< what evaluations and steps write, stage by stage
   void* block;               ///< the one allocation every array lives in (vsc_rod.c's size table)
 };
 

@@ -11,19 +11,19 @@
 
 #include "viscera/vsc_band.h"
 #include "viscera/vsc_grasp.h"
-#include "viscera/vsc_jacobian.h"
-#include "vsc_contact_load.h"
+#include "vsc_contact.h"
 #include "vsc_elastic.h"
 #include "vsc_forces.h"
-#include "vsc_touch.h"
+#include "vsc_place.h"
+#include "vsc_sleep.h"
 
 // Classical 4th-order Runge-Kutta: 4 force evaluations a substep, stable to
 // h < 2.8 / omega_max, energy error O(h^4) (it loses energy, never gains).
 vsc_status vsc_rk4_substep(vsc_step_context* context, double* q, double* v, double h) {
-  vsc_rod* rod = context->rod;
+  const vsc_rod* rod = context->rod;
   double weight = h / (6.0 * context->dt);
   int size = 3 * rod->n;
-  double* q0 = rod->work.stage;
+  double* q0 = rod->stages.scheme->stage;
   double* v0 = q0 + size;
   double* qs = v0 + size;     // stage position
   double* vs = qs + size;     // stage velocity
@@ -75,6 +75,18 @@ static double exact_damping_correction(const vsc_rod* rod, double h) {
   return expm1(-ch) + ch;
 }
 
+// x <- (A + s g g')^-1 A x by Sherman-Morrison, given u = A^-1 g (both n long):
+// x - s (g.x) / (1 + s g.u) u. The kick's and the implicit step's rank-one term.
+static void rank_one_update(double* x, const double* g, const double* u, double s, int size) {
+  double gx = 0.0, gu = 0.0;
+  for (int i = 0; i < size; ++i) {
+    gx += g[i] * x[i];
+    gu += g[i] * u[i];
+  }
+  double scale = s * gx / (1.0 + s * gu);
+  for (int i = 0; i < size; ++i) x[i] -= scale * u[i];
+}
+
 // The global length term K_g (l - length) is one stiff spring on the whole
 // axis (the paper's 200 N/m on a light bowel is the anatomical small bowel's
 // highest elastic mode: 2265 rad/s, its springs' 1082). The kick takes it
@@ -87,14 +99,14 @@ static double exact_damping_correction(const vsc_rod* rod, double h) {
 // damping c (1/s; the default 1). Sherman-Morrison on M:
 // dv - s (g.dv) / (1 + s g.M^-1 g) M^-1 g, one gradient and one mass solve,
 // O(n). Points held still (pinned, asleep) take no part: their rows of g are 0.
-static void implicit_length_kick(vsc_rod* rod, double h, double* dv) {
+static void implicit_length_kick(const vsc_rod* rod, double h, double* dv) {
   double stiffness = h * h * rod->def.global_stretch_stiffness;  // s (kg)
   if (!(stiffness > 0.0)) return;
   int n = rod->n, size = 3 * n;
-  double* g = rod->work.stage + size;  // the stage block's second and third slices are free in a kick
+  double* g = rod->stages.scheme->stage + size;  // the stage block's second and third slices are free in a kick
   double* u = g + size;
-  vsc_rod_length_gradient(rod, g);
-  const unsigned char* asleep = rod->work.asleep_count > 0 ? rod->work.asleep : NULL;
+  const unsigned char* asleep = vsc_sleep_points(rod->stages.sleep);
+  vsc_elastic_length_gradient(rod, rod->stages.elastic, asleep, g);
   for (int k = 0; k < n; ++k)
     if (rod->is_pinned[k] || (asleep && asleep[k])) g[3 * k] = g[3 * k + 1] = g[3 * k + 2] = 0.0;
   if (rod->def.lumped_mass) {
@@ -104,13 +116,7 @@ static void implicit_length_kick(vsc_rod* rod, double h, double* dv) {
     memcpy(u, g, sizeof(double) * (size_t)size);
     vsc_band_solve3(rod->mass_factor, n, u);
   }
-  double g_dv = 0.0, g_u = 0.0;
-  for (int i = 0; i < size; ++i) {
-    g_dv += g[i] * dv[i];
-    g_u += g[i] * u[i];
-  }
-  double scale = stiffness * g_dv / (1.0 + stiffness * g_u);
-  for (int i = 0; i < size; ++i) dv[i] -= scale * u[i];
+  rank_one_update(dv, g, u, stiffness, size);
 }
 
 // One force evaluation: drift q by `before` of the substep, kick v with the
@@ -120,9 +126,9 @@ static void implicit_length_kick(vsc_rod* rod, double h, double* dv) {
 // drifts half (before = 1/2): the midpoint evaluation is what makes it second
 // order at the same cost.
 static vsc_status drift_kick_drift(vsc_step_context* context, double* q, double* v, double h, double before) {
-  vsc_rod* rod = context->rod;
+  const vsc_rod* rod = context->rod;
   int size = 3 * rod->n;
-  double* a = rod->work.stage;
+  double* a = rod->stages.scheme->stage;
   double first = before * h, second = (1.0 - before) * h;
   if (before > 0.0)
     for (int i = 0; i < size; ++i) q[i] += first * v[i];
@@ -179,8 +185,9 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
   double* geom_wrench = context->reactions->geom_wrench;
   if (!geom_wrench) return;
   double normal[3], k = rod->def.contact_stiffness, c = rod->def.contact_damping;
+  const vsc_touch_records* touch = &rod->stages.contact->touch;
   for (int i = 0; i < rod->def.collision_sphere_count && world->geom_count > 0; ++i) {
-    int geom = vsc_rod_rigid_touch(rod, i, normal);
+    int geom = vsc_touch_rigid(touch, i, normal);
     if (geom < 0) continue;
     const vsc_basis* b = &rod->sphere_basis[i];
     double moved[3], accelerated[3];
@@ -189,7 +196,7 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
     double change = -(k * (moved[0] * normal[0] + moved[1] * normal[1] + moved[2] * normal[2]) +
                       c * (accelerated[0] * normal[0] + accelerated[1] * normal[1] + accelerated[2] * normal[2]));
     double f[3] = {change * normal[0], change * normal[1], change * normal[2]};  // on the sphere
-    const double* x = rod->work.sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
+    const double* x = rod->stages.placement->sphere_xyz + 3 * i;  // at the substep start: the lever arm's first order is enough
     const double* p = world->geoms[geom].position;
     double r = rod->sphere_radius[i];
     double arm[3] = {x[0] - r * normal[0] - p[0], x[1] - r * normal[1] - p[1], x[2] - r * normal[2] - p[2]};
@@ -205,10 +212,12 @@ static void correct_reactions(const vsc_step_context* context, const double* dq,
 // contact stiffness never limit h; first order, and it damps motion whose
 // period is not resolved by h. Self-contacts and friction stay explicit.
 vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v, double h) {
-  vsc_rod* rod = context->rod;
+  const vsc_rod* rod = context->rod;
   const vsc_world* world = context->world;
+  vsc_scheme_scratch* scratch = rod->stages.scheme;
+  const vsc_touch_records* touch = &rod->stages.contact->touch;
   int size = 3 * rod->n, w = rod->jacobian_half_width;
-  double* q0 = rod->work.stage;
+  double* q0 = scratch->stage;
   double* v0 = q0 + size;
   double* rhs = v0 + size;       // generalised forces, then the right-hand side
   double* spread = rhs + size;   // A^-1 g for the rank-one global term
@@ -218,31 +227,25 @@ vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v,
   context->wrench_weight = h / context->dt;
   vsc_forces_evaluate(context, q0, v0, rhs);  // Q(q0, v0), and the touch records the Jacobian reads
   // A v1 = M v0 + h (Q + D v0) with A = (1 + h c) M + h D + h^2 K (vsc_integrate.h)
-  vsc_rod_add_damping_force(rod, world, v0, rhs);
+  vsc_jacobian_add_damping_force(rod, touch, world, v0, rhs);
   for (int i = 0; i < size; ++i) rhs[i] *= h;
   double* momentum = spread;  // M v0, before `spread` is needed
   vsc_band_multiply3(rod->mass_band, rod->n, v0, momentum);
   for (int i = 0; i < size; ++i) rhs[i] += momentum[i];
-  memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
-  vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, rod->work.system);
-  vsc_rod_add_jacobian(rod, world, q0, h * h, h, rod->work.system, gradient);
-  vsc_rod_pin_band(rod, rod->work.system);
+  memset(scratch->system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
+  vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, scratch->system);
+  vsc_jacobian_add(rod, &scratch->jacobian, touch, world, q0, h * h, h, scratch->system, gradient);
+  vsc_rod_pin_band(rod, scratch->system);
   for (int p = 0; p < rod->def.pinned_count; ++p)
     for (int c = 0; c < 3; ++c) rhs[3 * rod->pinned[p] + c] = gradient[3 * rod->pinned[p] + c] = 0.0;
-  vsc_status status = vsc_band_wide_factor(rod->work.system, size, w, rod->work.factor_row);
+  vsc_status status = vsc_band_wide_factor(scratch->system, size, w, scratch->factor_row);
   if (status != VSC_OK) return VSC_ERROR_DIVERGED;
-  vsc_band_wide_solve(rod->work.system, size, w, rhs);
+  vsc_band_wide_solve(scratch->system, size, w, rhs);
   double global = h * h * rod->def.global_stretch_stiffness;
-  if (global > 0.0) {  // (A + global g g^T)^-1 r = x - (global g.x / (1 + global g.A^-1 g)) A^-1 g
+  if (global > 0.0) {  // (A + global g g^T)^-1 r, with A^-1 g in `spread`
     memcpy(spread, gradient, sizeof(double) * size);
-    vsc_band_wide_solve(rod->work.system, size, w, spread);
-    double gx = 0.0, gy = 0.0;
-    for (int i = 0; i < size; ++i) {
-      gx += gradient[i] * rhs[i];
-      gy += gradient[i] * spread[i];
-    }
-    double scale = global * gx / (1.0 + global * gy);
-    for (int i = 0; i < size; ++i) rhs[i] -= scale * spread[i];
+    vsc_band_wide_solve(scratch->system, size, w, spread);
+    rank_one_update(rhs, gradient, spread, global, size);
   }
   for (int i = 0; i < size; ++i) {
     v[i] = rhs[i];

@@ -5,6 +5,16 @@
 
 #include "viscera/vsc_integrate.h"
 #include "vsc_context.h"
+#include "vsc_jacobian.h"
+
+/// The schemes' scratch, which they own: integrator stages, and the implicit
+/// step's system and Jacobian.
+struct vsc_scheme_scratch {
+  double* stage;                  ///< integrator stages (8 x 3n)
+  double* system;                 ///< the implicit step's matrix, wide band 3n x (jacobian_half_width + 1)
+  double* factor_row;             ///< factorisation scratch (jacobian_half_width + 1)
+  vsc_jacobian_scratch jacobian;  ///< the implicit step's Jacobian
+};
 
 /// One substep of h (s) on q (m) and v (m/s) in place. VSC_OK, or
 /// VSC_ERROR_DIVERGED when a factorisation fails.

@@ -7,7 +7,6 @@
 #include "viscera/vsc_grasp.h"
 #include "viscera/vsc_spline.h"
 #include "vsc_contact.h"
-#include "vsc_place.h"
 
 vsc_sleep_options vsc_default_sleep_options(void) {
   vsc_sleep_options options = {0, 0.005, 0.25};
@@ -59,11 +58,11 @@ static int within_rest(const vsc_sleep_options* options, const double* q, const 
   return dx * dx + dy * dy + dz * dz < reach * reach;
 }
 
-int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double* q, double* rest, double* v) {
+int vsc_sleep_begin(const vsc_rod* rod, vsc_sleep_flags* f, const vsc_sleep_options* options, const double* q,
+                    double* rest, double* v) {
   int n = rod->n, spheres = rod->def.collision_sphere_count, count = 0;
-  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(n + spheres));
-  rod->work.asleep_count = 0;
-  rod->work.rest = NULL;
+  if (f->asleep_count > 0) memset(f->asleep, 0, (size_t)(n + spheres));
+  f->asleep_count = 0;
   if (!rest || !options || !options->enabled) return 0;
   for (int k = 0; k < n; ++k) {
     int asleep = vsc_sleeps(options, rest[VSC_REST_SIZE * k + VSC_REST_TIME]);
@@ -71,62 +70,82 @@ int vsc_sleep_begin(vsc_rod* rod, const vsc_sleep_options* options, const double
       restart_rest(rest, q, k);
       asleep = 0;
     }
-    rod->work.asleep[k] = (unsigned char)asleep;
+    f->asleep[k] = (unsigned char)asleep;
     count += asleep;
   }
-  rod->work.rest = rest;
   if (count == 0) return 0;
-  rod->work.asleep_count = count;
-  memset(rod->work.unbalanced, 0, (size_t)n);
+  f->asleep_count = count;
+  memset(f->unbalanced, 0, (size_t)n);
   if (count == n) {  // asleep everywhere (the common case at rest): all deep, held, nothing watched
     memset(v, 0, sizeof(double) * 3 * (size_t)n);
-    memset(rod->work.asleep, VSC_ASLEEP_DEEP, (size_t)(n + spheres));
+    memset(f->asleep, VSC_ASLEEP_DEEP, (size_t)(n + spheres));
     for (int k = 0; k < n; ++k) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;
     return count;
   }
   // asleep within reach of an awake point: at the edge, its forces watched; deeper: unwatched
   for (int k = 0; k < n; ++k)
-    if (rod->work.asleep[k]) rod->work.asleep[k] = VSC_ASLEEP_DEEP;
+    if (f->asleep[k]) f->asleep[k] = VSC_ASLEEP_DEEP;
   for (int pass = 0; pass < 2; ++pass) {  // awake points mark their sleeping neighbours on either side
     int last_awake = -VSC_SLEEP_REACH - 1;
     for (int i = 0; i < n; ++i) {
       int k = pass ? n - 1 - i : i;
-      if (!rod->work.asleep[k])
+      if (!f->asleep[k])
         last_awake = i;
       else if (i - last_awake <= VSC_SLEEP_REACH)
-        rod->work.asleep[k] = VSC_ASLEEP_EDGE;
+        f->asleep[k] = VSC_ASLEEP_EDGE;
     }
   }
   for (int k = 0; k < n; ++k) {
-    if (rod->work.asleep[k]) v[3 * k] = v[3 * k + 1] = v[3 * k + 2] = 0.0;
-    if (rod->work.asleep[k] != VSC_ASLEEP_EDGE) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;  // a new edge, a new load
+    if (f->asleep[k]) v[3 * k] = v[3 * k + 1] = v[3 * k + 2] = 0.0;
+    if (f->asleep[k] != VSC_ASLEEP_EDGE) rest[VSC_REST_SIZE * k + VSC_REST_WATCHED] = 0.0;  // a new edge, a new load
   }
   for (int i = 0; i < spheres; ++i) {  // a sphere sleeps as the least asleep of the 4 points it depends on
-    const unsigned char* a = rod->work.asleep + rod->sphere_basis[i].first;
+    const unsigned char* a = f->asleep + rod->sphere_basis[i].first;
     unsigned char least = a[0] < a[1] ? a[0] : a[1], later = a[2] < a[3] ? a[2] : a[3];
-    rod->work.sphere_asleep[i] = least < later ? least : later;
+    f->sphere_asleep[i] = least < later ? least : later;
   }
   return count;
 }
 
-void vsc_sleep_retry(vsc_rod* rod) {
-  if (rod->work.asleep_count > 0) memset(rod->work.unbalanced, 0, (size_t)rod->n);
+void vsc_sleep_hold(const vsc_rod* rod, vsc_sleep_flags* f, double* rest, double* a) {
+  if (f->asleep_count == 0) return;
+  const double limit2 = VSC_SLEEP_WAKE_ACCELERATION * VSC_SLEEP_WAKE_ACCELERATION;
+  for (int k = 0; k < rod->n; ++k) {
+    if (!f->asleep[k]) continue;
+    double* ak = a + 3 * k;
+    if (f->asleep[k] == VSC_ASLEEP_EDGE) {  // ... and one next to awake points wakes when its forces change
+      double* record = rest + VSC_REST_SIZE * k;
+      double* load = record + VSC_REST_LOAD;
+      if (record[VSC_REST_WATCHED] == 0.0) {
+        load[0] = ak[0];
+        load[1] = ak[1];
+        load[2] = ak[2];
+        record[VSC_REST_WATCHED] = 1.0;
+      }
+      double d0 = ak[0] - load[0], d1 = ak[1] - load[1], d2 = ak[2] - load[2];
+      if (d0 * d0 + d1 * d1 + d2 * d2 > limit2) f->unbalanced[k] = 1;
+    }
+    ak[0] = ak[1] = ak[2] = 0.0;
+  }
 }
 
-void vsc_sleep_end(vsc_rod* rod) {
-  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
-  rod->work.asleep_count = 0;
-  rod->work.rest = NULL;
+void vsc_sleep_retry(const vsc_rod* rod, vsc_sleep_flags* f) {
+  if (f->asleep_count > 0) memset(f->unbalanced, 0, (size_t)rod->n);
 }
 
-void vsc_sleep_wake_all(vsc_rod* rod, const double* q, double* rest) {
+void vsc_sleep_end(const vsc_rod* rod, vsc_sleep_flags* f) {
+  if (f->asleep_count > 0) memset(f->asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
+  f->asleep_count = 0;
+}
+
+void vsc_sleep_wake_all(const vsc_rod* rod, vsc_sleep_flags* f, const double* q, double* rest) {
   if (rest) vsc_rest_wake_all(rod->n, q, rest);
-  if (rod->work.asleep_count > 0) memset(rod->work.asleep, 0, (size_t)(rod->n + rod->def.collision_sphere_count));
-  rod->work.asleep_count = 0;
+  vsc_sleep_end(rod, f);
 }
 
 typedef struct waking {
   const vsc_rod* rod;
+  const vsc_sleep_flags* flags;
   const vsc_sleep_options* options;
   const double* q;
   double* rest;
@@ -136,7 +155,7 @@ typedef struct waking {
 
 // The sleeping ones of the 4 control points sphere `sphere` depends on wake.
 static void wake_sphere(waking* w, int sphere) {
-  const unsigned char* asleep = w->rod->work.asleep;
+  const unsigned char* asleep = w->flags->asleep;
   int first = w->rod->sphere_basis[sphere].first;
   for (int k = first; k < first + VSC_SPLINE_SUPPORT; ++k)
     if (asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0) {
@@ -147,8 +166,8 @@ static void wake_sphere(waking* w, int sphere) {
 }
 
 // 1 if a point sphere `sphere` depends on moved this step.
-static int sphere_moved(const vsc_rod* rod, int sphere) {
-  const unsigned char* moved = rod->work.moved + rod->sphere_basis[sphere].first;
+static int sphere_moved(const vsc_rod* rod, const vsc_sleep_flags* f, int sphere) {
+  const unsigned char* moved = f->moved + rod->sphere_basis[sphere].first;
   return moved[0] | moved[1] | moved[2] | moved[3];
 }
 
@@ -159,7 +178,7 @@ static int sphere_moved(const vsc_rod* rod, int sphere) {
 static void wake_by_contact(void* data, int rigid, int a, int b, double speed, double depth) {
   waking* w = (waking*)data;
   const vsc_rod* rod = w->rod;
-  const unsigned char* asleep = rod->work.sphere_asleep;
+  const unsigned char* asleep = w->flags->sphere_asleep;
   if (rigid) {
     int chatter = w->world->geoms[b].resting;  // a resting rod's capsule: its speed is no motion
     if (asleep[a] && ((!chatter && speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed) ||
@@ -167,24 +186,24 @@ static void wake_by_contact(void* data, int rigid, int a, int b, double speed, d
       wake_sphere(w, a);
     return;
   }
-  if ((asleep[a] || asleep[a + 1]) && (sphere_moved(rod, b) || sphere_moved(rod, b + 1))) {
+  if ((asleep[a] || asleep[a + 1]) && (sphere_moved(rod, w->flags, b) || sphere_moved(rod, w->flags, b + 1))) {
     wake_sphere(w, a);
     wake_sphere(w, a + 1);
   }
-  if ((asleep[b] || asleep[b + 1]) && (sphere_moved(rod, a) || sphere_moved(rod, a + 1))) {
+  if ((asleep[b] || asleep[b + 1]) && (sphere_moved(rod, w->flags, a) || sphere_moved(rod, w->flags, a + 1))) {
     wake_sphere(w, b);
     wake_sphere(w, b + 1);
   }
 }
 
 // Touches and holds: contacts whose partner moves, and every point a jaw holds.
-static void wake_touched(waking* w, const vsc_world* world) {
+static void wake_touched(waking* w, const vsc_contact_pass* contacts, const vsc_world* world) {
   const vsc_rod* rod = w->rod;
-  vsc_rod_visit_contacts(rod, wake_by_contact, w);
+  vsc_contact_visit(contacts, wake_by_contact, w);
   for (int g = 0; g < world->grasp_count; ++g) {
     vsc_basis b = vsc_spline_basis(rod->n, world->grasps[g].abscissa);
     for (int k = b.first; k < b.first + VSC_SPLINE_SUPPORT; ++k) {
-      w->woken += rod->work.asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0;
+      w->woken += w->flags->asleep[k] && w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] >= 0.0;
       restart_rest(w->rest, w->q, k);  // held: never at rest
     }
   }
@@ -192,31 +211,19 @@ static void wake_touched(waking* w, const vsc_world* world) {
     if (w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] < 0.0) w->rest[VSC_REST_SIZE * k + VSC_REST_TIME] = 0.0;
 }
 
-int vsc_sleep_rest(vsc_step_context* context, const vsc_sleep_options* options, const double* q, double* rest) {
-  vsc_rod* rod = context->rod;
-  const vsc_world* world = context->world;
-  double* Q = rod->work.stage;  // scratch: the held rod's forces are not used
-  memset(Q, 0, sizeof(double) * 3 * (size_t)rod->n);
-  memset(rod->work.moved, 0, (size_t)rod->n);
-  context->wrench_weight = 1.0;
-  context->substep = 0.0;
-  rod->work.found_count = 0;
-  rod->work.touched = world->geom_count > 0;  // sleeping spheres never touch each other
-  if (rod->work.touched) {
-    vsc_rod_update_spheres(rod, q, NULL);  // held: the spheres' velocities are zero
-    memset(rod->work.sphere_velocity, 0, sizeof(double) * 3 * (size_t)rod->def.collision_sphere_count);
-    vsc_rod_add_contact_forces(context, Q);
-  }
-  waking w = {rod, options, q, rest, 0, world};
-  wake_touched(&w, world);
+int vsc_sleep_rest(const vsc_rod* rod, vsc_sleep_flags* f, const vsc_contact_pass* contacts, const vsc_world* world,
+                   const vsc_sleep_options* options, const double* q, double* rest) {
+  memset(f->moved, 0, (size_t)rod->n);
+  waking w = {rod, f, options, q, rest, 0, world};
+  wake_touched(&w, contacts, world);
   return w.woken == 0;
 }
 
-void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_options* options, const double* start_q,
-                       const double* q, double dt, double* rest) {
+void vsc_sleep_advance(const vsc_rod* rod, vsc_sleep_flags* f, const vsc_contact_pass* contacts, const vsc_world* world,
+                       const vsc_sleep_options* options, const double* start_q, const double* q, double dt, double* rest) {
   int n = rod->n;
-  const unsigned char* asleep = rod->work.asleep;  // all 0 when nothing sleeps
-  unsigned char* moved = rod->work.moved;
+  const unsigned char* asleep = f->asleep;  // all 0 when nothing sleeps
+  unsigned char* moved = f->moved;
   double step_reach = options->rest_speed * dt;
   double away = VSC_SLEEP_MOVE_SHARE * options->rest_speed * options->rest_time;  // (m)
   for (int k = 0; k < n; ++k) {
@@ -238,10 +245,10 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
       moved[k] = 1;
     }
   }
-  waking w = {rod, options, q, rest, 0, world};
-  if (rod->work.asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
+  waking w = {rod, f, options, q, rest, 0, world};
+  if (f->asleep_count > 0) {  // a point that moved wakes the sleeping ones within reach
     for (int k = 0; k < n; ++k)  // and one at the edge whose forces changed wakes
-      if (rod->work.unbalanced[k]) restart_rest(rest, q, k);
+      if (f->unbalanced[k]) restart_rest(rest, q, k);
     int last_moved = -VSC_SLEEP_REACH - 1;
     for (int k = 0; k < n; ++k) {
       if (moved[k]) {
@@ -253,5 +260,5 @@ void vsc_sleep_advance(vsc_rod* rod, const vsc_world* world, const vsc_sleep_opt
       }
     }
   }
-  wake_touched(&w, world);
+  wake_touched(&w, contacts, world);
 }

@@ -4,22 +4,34 @@
 #include "vsc_rod.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "viscera/vsc_band.h"
-#include "viscera/vsc_jacobian.h"
+#include "vsc_jacobian.h"
 #include "vsc_schemes.h"
 
+// The estimate's own scratch, one allocation for one call (at load time).
+typedef struct estimate {
+  double* system;    // the elastic Jacobian's band, 3n x (jacobian_half_width + 1)
+  double* gradient;  // g = dl/dq (3n)
+  double* x;         // the power iteration's vector, K x and M x (3n each)
+  double* y;
+  double* mx;
+  vsc_jacobian_scratch jacobian;
+} estimate;
+
 // y = K x for the frequency estimate: with `contact` = 0, the band part of the
-// elastic Jacobian in rod->work.system and the global length term's rank-one part
+// elastic Jacobian in `system` and the global length term's rank-one part
 // K_g g (g . x); with `contact` > 0 (N/m), only a penalty spring of that
 // stiffness at every sphere in every direction.
-static void stiffness_times(vsc_rod* rod, const double* gradient, double contact, const double* x, double* y) {
+static void stiffness_times(const vsc_rod* rod, const double* system, const double* gradient, double contact,
+                            const double* x, double* y) {
   int size = 3 * rod->n;
   if (contact > 0.0)  // the contact estimate alone: no elastic band
     memset(y, 0, sizeof(double) * (size_t)size);
   else
-    vsc_band_wide_multiply(rod->work.system, size, rod->jacobian_half_width, x, y);
+    vsc_band_wide_multiply(system, size, rod->jacobian_half_width, x, y);
   double gx = 0.0;
   for (int i = 0; i < size; ++i) gx += gradient[i] * x[i];
   for (int i = 0; i < size; ++i) y[i] += rod->def.global_stretch_stiffness * gx * gradient[i];
@@ -35,11 +47,9 @@ static void stiffness_times(vsc_rod* rod, const double* gradient, double contact
 }
 
 // Power iteration on M^-1 K: the largest omega^2 (rad^2/s^2), from below.
-static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double contact) {
+static double largest_eigenvalue(const vsc_rod* rod, const estimate* e, double contact) {
   int size = 3 * rod->n;
-  double* x = rod->work.stage + 3 * size;  // the first three are the caller's gradient and scratch
-  double* y = x + size;
-  double* mx = y + size;
+  double *x = e->x, *y = e->y, *mx = e->mx;
   // start near the highest mode: neighbours in opposition, along every axis
   for (int k = 0; k < rod->n; ++k)
     for (int c = 0; c < 3; ++c)
@@ -50,7 +60,7 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
   int iterations = VSC_FREQUENCY_WORK / work < VSC_FREQUENCY_ITERATIONS ? (int)(VSC_FREQUENCY_WORK / work) : VSC_FREQUENCY_ITERATIONS;
   if (iterations < 12) iterations = 12;
   for (int iteration = 0; iteration < iterations; ++iteration) {
-    stiffness_times(rod, gradient, contact, x, y);
+    stiffness_times(rod, e->system, e->gradient, contact, x, y);
     vsc_band_multiply3(rod->mass_band, rod->n, x, mx);
     double xkx = 0.0, xmx = 0.0;
     for (int i = 0; i < size; ++i) {
@@ -76,16 +86,25 @@ static double largest_eigenvalue(vsc_rod* rod, const double* gradient, double co
 
 void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, double* elastic, double* contact) {
   int size = 3 * rod->n;
+  size_t band = (size_t)size * (size_t)(rod->jacobian_half_width + 1);
+  double* block = (double*)calloc(band + 4 * (size_t)size + VSC_JACOBIAN_SCRATCH_DOUBLES((size_t)rod->sample_count),
+                                  sizeof(double));
+  if (!block) {  // (a few hundred kB at most)
+    *elastic = *contact = 0.0;
+    return;
+  }
+  estimate e = {block, block + band, block + band + size, block + band + 2 * size, block + band + 3 * size, {0}};
+  vsc_jacobian_scratch_carve(&e.jacobian, block + band + 4 * (size_t)size, rod->sample_count);
   vsc_world world = {{0, 0, 0}, NULL, 0};
-  double* gradient = rod->work.stage;
-  memset(rod->work.system, 0, sizeof(double) * (size_t)size * (size_t)(rod->jacobian_half_width + 1));
-  vsc_rod_add_jacobian(rod, &world, q, 1.0, 0.0, rod->work.system, gradient);
+  double* gradient = e.gradient;
+  vsc_jacobian_add(rod, &e.jacobian, NULL, &world, q, 1.0, 0.0, e.system, gradient);
   for (int k = 0; k < rod->n; ++k)  // a kick that takes the global length term implicitly does not see its mode
     if (rod->is_pinned[k] || length_implicit) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
-  *elastic = sqrt(largest_eigenvalue(rod, gradient, 0.0));
+  *elastic = sqrt(largest_eigenvalue(rod, &e, 0.0));
   memset(gradient, 0, sizeof(double) * (size_t)size);  // contact alone: no global term either
   // a self-contact presses two spheres apart: twice the stiffness on their relative motion
-  double squared = largest_eigenvalue(rod, gradient, rod->def.contact_stiffness) * (rod->def.self_collision ? 2.0 : 1.0);
+  double squared = largest_eigenvalue(rod, &e, rod->def.contact_stiffness) * (rod->def.self_collision ? 2.0 : 1.0);
+  free(block);
   *contact = sqrt(squared);
   // the contact springs' mode is also their damping's: c omega^2 / k (1/s)
   rod->contact_damping_rate = rod->def.contact_damping * squared / rod->def.contact_stiffness;

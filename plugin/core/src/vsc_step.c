@@ -8,9 +8,11 @@
 #include <math.h>
 #include <string.h>
 
-#include "viscera/vsc_contact.h"
 #include "viscera/vsc_grasp.h"
-#include "viscera/vsc_energy.h"
+#include "vsc_contact.h"
+#include "vsc_energy.h"
+#include "vsc_forces.h"
+#include "vsc_place.h"
 #include "vsc_friction.h"
 #include "vsc_schemes.h"
 #include "vsc_sleep.h"
@@ -46,13 +48,45 @@ typedef struct guard {
   int contacts;          // 1 if the rod can touch anything
 } guard;
 
-static double mechanical_energy(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+void vsc_step_backup_carve(vsc_step_backup* b, double* block, int n, int N, int spheres) {
+  b->q = block;
+  b->v = b->q + 3 * (size_t)n;
+  b->stick = b->v + 3 * (size_t)n;
+  b->energy_q = b->stick + VSC_STICK_SIZE * (size_t)spheres;
+  b->energy_v = b->energy_q + 3 * (size_t)n;
+  b->energy_mass_times_v = b->energy_v + 3 * (size_t)n;
+  b->energy_spheres = b->energy_mass_times_v + 3 * (size_t)n;
+  vsc_elastic_scratch_carve(&b->energy_elastic, b->energy_spheres + 3 * (size_t)spheres, N);
+  b->energy_known = 0;
+}
+
+// Kinetic + elastic energy at (q, v) (J), on the guard's scratch; the last state
+// asked about is remembered, so one step's end is not computed again as the next one's start.
+static double active_energy(const vsc_rod* rod, vsc_step_backup* b, const double* q, const double* v) {
+  size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
+  if (b->energy_known && memcmp(b->energy_q, q, bytes) == 0 && memcmp(b->energy_v, v, bytes) == 0)
+    return b->energy_active;
+  b->energy_active = vsc_energy_active(rod, &b->energy_elastic, b->energy_mass_times_v, q, v);
+  memcpy(b->energy_q, q, bytes);
+  memcpy(b->energy_v, v, bytes);
+  b->energy_known = 1;
+  return b->energy_active;
+}
+
+static double mechanical_energy(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
                                 double* kinetic_elastic) {
-  *kinetic_elastic = vsc_rod_active_energy(rod, q, v);
+  *kinetic_elastic = active_energy(rod, rod->stages.backup, q, v);
   return *kinetic_elastic + vsc_rod_gravity_energy(rod, world->gravity, q);
 }
 
-static guard guard_begin(vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
+// The contact penalty's potential at q (J), on the guard's scratch: the lists are read, never rebuilt.
+static double contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q) {
+  double* spheres = rod->stages.backup->energy_spheres;
+  vsc_rod_sphere_points(rod, q, NULL, spheres, NULL);
+  return vsc_contact_energy(rod, world, spheres, rod->stages.broad_phase, NULL);
+}
+
+static guard guard_begin(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,
                          const vsc_step_options* o) {
   guard g;
   g.start_energy = mechanical_energy(rod, world, q, v, &g.start_active);
@@ -64,16 +98,16 @@ static guard guard_begin(vsc_rod* rod, const vsc_world* world, const double* q, 
 }
 
 // 1 if the step from start_q to (q, v) kept within the budget.
-static int guard_holds(guard* g, vsc_rod* rod, const vsc_world* world, const double* start_q, const double* q,
+static int guard_holds(guard* g, const vsc_rod* rod, const vsc_world* world, const double* start_q, const double* q,
                        const double* v, const vsc_step_options* o) {
   double active, energy = mechanical_energy(rod, world, q, v, &active);
   if (isfinite(energy) && energy - g->start_energy <= g->allowed) return 1;
   if (!g->contacts || !isfinite(energy)) return 0;
   // A rod pushed out of a geom turns the penalty's potential into kinetic
-  // energy legitimately. Evaluated lazily, as it costs a narrow phase; start
-  // first, end last: the rod's spheres and contact lists are left at the accepted q.
-  if (g->start_contact < 0.0) g->start_contact = vsc_rod_contact_energy(rod, world, start_q, NULL);
-  double end_contact = vsc_rod_contact_energy(rod, world, q, NULL);
+  // energy legitimately. Evaluated lazily, as it costs a narrow phase; it
+  // changes nothing the next evaluation reads.
+  if (g->start_contact < 0.0) g->start_contact = contact_energy(rod, world, start_q);
+  double end_contact = contact_energy(rod, world, q);
   double jump = energy + end_contact - (g->start_energy + g->start_contact);
   // the allowance grows with the stored contact energy: an embedded rod may release it,
   // but no more than that (a blow-up from deep contact still trips the guard)
@@ -82,7 +116,7 @@ static int guard_holds(guard* g, vsc_rod* rod, const vsc_world* world, const dou
 
 // One attempt at the whole step with `substeps` substeps: 0 if a substep diverged.
 static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* q, double* v, int substeps) {
-  vsc_rod* rod = context->rod;
+  const vsc_rod* rod = context->rod;
   int size = 3 * rod->n;
   double h = context->dt / (double)substeps;
   clear_reactions(context);
@@ -91,7 +125,9 @@ static int attempt(vsc_step_context* context, const vsc_scheme* scheme, double* 
     context->substep = h;
     if (scheme->substep(context, q, v, h) != VSC_OK || !state_is_sane(q, v, size)) return 0;
     // friction, from the last evaluation's contacts
-    if (context->stick) vsc_rod_update_stick(rod, context->stick, h, context->unseen);
+    if (context->stick)
+      vsc_rod_update_stick(rod, &rod->stages.contact->touch, vsc_sleep_spheres(rod->stages.sleep), context->stick, h,
+                           context->unseen);
   }
   return 1;
 }
@@ -104,14 +140,16 @@ vsc_status vsc_rod_step(vsc_rod* rod, const vsc_world* world, const vsc_reaction
                         double* stick, double* rest, double dt, const vsc_step_options* options,
                         vsc_step_report* report) {
   vsc_status status = step(rod, world, reactions ? reactions : &vsc_no_reactions, q, v, stick, rest, dt, options, report);
-  vsc_sleep_end(rod);  // the flags are this step's: a lone evaluation after it sees every point awake
+  vsc_sleep_end(rod, rod->stages.sleep);  // the flags are this step's: a lone evaluation after it sees every point awake
   return status;
 }
 
 static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions* reactions, double* q, double* v,
                        double* stick, double* rest, double dt, const vsc_step_options* options,
                        vsc_step_report* report) {
-  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, VSC_CONTACT_DAMPING_LIMIT, 0};
+  vsc_step_context context = {rod, world, reactions, stick, dt, 0.0, NULL, 0.0, VSC_CONTACT_DAMPING_LIMIT, 0, NULL};
+  vsc_sleep_flags* sleep = rod->stages.sleep;
+  vsc_step_backup* backup = rod->stages.backup;
   clear_reactions(&context);  // overwritten whatever the step does, even refused
   vsc_step_options o = options ? *options : vsc_default_step_options();
   if (o.substeps < 1 || o.retries < 0 || !(dt > 0.0) || !(o.energy_jump_ratio >= 0.0) ||
@@ -131,10 +169,12 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
     report->substeps = 0;
   }
   // sleeping points held still; a rod asleep everywhere only feels moving bodies, unless they wake it
-  int asleep = vsc_sleep_begin(rod, sleeping ? &o.sleep : NULL, q, rest, v);
+  if (sleeping) context.rest = rest;
+  int asleep = vsc_sleep_begin(rod, sleep, sleeping ? &o.sleep : NULL, q, rest, v);
   if (asleep == rod->n) {  // (the reactions were cleared above; only moving geoms push it)
-    if (vsc_sleep_rest(&context, &o.sleep, q, rest)) return VSC_OK;
-    vsc_sleep_begin(rod, &o.sleep, q, rest, v);
+    vsc_forces_at_rest(&context, q, rod->stages.scheme->stage);
+    if (vsc_sleep_rest(rod, sleep, rod->stages.contact, world, &o.sleep, q, rest)) return VSC_OK;
+    vsc_sleep_begin(rod, sleep, &o.sleep, q, rest, v);
   }
   const vsc_scheme* scheme = &vsc_schemes[o.integrator];
   int size = 3 * rod->n, spheres = rod->def.collision_sphere_count;
@@ -143,9 +183,9 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
     pinned_velocity[0] = pinned_velocity[1] = pinned_velocity[2] = 0.0;
   }
   // the start, kept for retries
-  double* start_q = rod->work.backup;
-  double* start_v = start_q + size;
-  double* start_stick = start_v + size;
+  double* start_q = backup->q;
+  double* start_v = backup->v;
+  double* start_stick = backup->stick;
   memcpy(start_q, q, sizeof(double) * size);
   memcpy(start_v, v, sizeof(double) * size);
   if (stick) memcpy(start_stick, stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
@@ -158,18 +198,18 @@ static vsc_status step(vsc_rod* rod, const vsc_world* world, const vsc_reactions
       if (stick) memcpy(stick, start_stick, sizeof(double) * VSC_STICK_SIZE * (size_t)spheres);
       if (2 * substeps > VSC_MAX_RETRY_SUBSTEPS) break;
       substeps *= 2;
-      if (sleeping) vsc_sleep_retry(rod);  // the failed attempt's edge loads count for nothing
+      if (sleeping) vsc_sleep_retry(rod, sleep);  // the failed attempt's edge loads count for nothing
     }
     if (report) {
       report->retries = retry;
       report->substeps = substeps;
     }
     if (attempt(&context, scheme, q, v, substeps) && guard_holds(&g, rod, world, start_q, q, v, &o)) {
-      if (sleeping) vsc_sleep_advance(rod, world, &o.sleep, start_q, q, dt, rest);
+      if (sleeping) vsc_sleep_advance(rod, sleep, rod->stages.contact, world, &o.sleep, start_q, q, dt, rest);
       return VSC_OK;
     }
   }
-  if (sleeping) vsc_sleep_wake_all(rod, start_q, rest);
+  if (sleeping) vsc_sleep_wake_all(rod, sleep, start_q, rest);
   // none held: back to the start, at rest
   memcpy(q, start_q, sizeof(double) * size);
   memset(v, 0, sizeof(double) * size);

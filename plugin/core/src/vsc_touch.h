@@ -24,12 +24,18 @@ enum {
   VSC_TOUCH_T = 10
 };
 
+/// The touch records, the narrow phase's (vsc_contact.h's pass holds them).
+typedef struct vsc_touch_records {
+  double* record;  ///< per sphere, VSC_TOUCH_SIZE each
+  int current;     ///< 1 if the last evaluation looked for contacts (the records are its)
+} vsc_touch_records;
+
 /// Forget every sphere's records (no partner, no force): the start of an evaluation.
-void vsc_touch_clear(vsc_rod* rod);
+void vsc_touch_clear(const vsc_rod* rod, vsc_touch_records* touch);
 
 /// The strongest rigid contact of `sphere` in the last evaluation: returns its
 /// geom index (-1: none) and writes its unit normal, from the geom to the sphere.
-int vsc_rod_rigid_touch(const vsc_rod* rod, int sphere, double normal[3]);
+int vsc_touch_rigid(const vsc_touch_records* touch, int sphere, double normal[3]);
 
 /// Keep a contact in `touch` (one record) if it pushes harder than the one there.
 static inline void vsc_record_touch(double* touch, int partner, double normal, double mu, const double n[3], const double vt[3],

@@ -77,8 +77,9 @@ typedef struct vsc_deepest_contact {
 /// Potential energy of the contact penalty springs at positions q (J):
 /// 1/2 k d^2 over every sphere-geom and self-contact of depth d > 0 (friction's
 /// stick springs are not counted). If `deepest` is not NULL it receives the
-/// deepest sphere-geom contact. Overwrites rod->sphere_xyz (velocities and the
-/// touch records are left alone) and may rebuild the candidate lists.
+/// deepest sphere-geom contact. Changes nothing an evaluation or a step reads:
+/// the spheres at q are placed in a scratch of the energy query's own, and the
+/// candidate lists are read where they cover q, never rebuilt.
 double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest);
 
 /// Each contact the last contact pass found: visit(data, rigid, a, b, speed,

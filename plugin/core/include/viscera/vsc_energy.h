@@ -4,14 +4,14 @@
 
 #include "viscera/vsc_rod.h"
 
-/// Kinetic + elastic energy (J). Remembers the last state it was asked about,
-/// so the energy at one step's end is not computed again at the next step's start.
+/// Kinetic + elastic energy (J), on the energy queries' own scratch: nothing an
+/// evaluation or a step reads changes.
 double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v);
 
 /// Gravitational potential energy (J) under `gravity` (m/s^2), zero at the origin.
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q);
 
-/// Kinetic energy 1/2 v^T M v (J).
+/// Kinetic energy 1/2 v^T M v (J), likewise.
 double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
 
 #endif  // VISCERA_VSC_ENERGY_H

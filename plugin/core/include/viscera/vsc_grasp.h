@@ -23,7 +23,7 @@ typedef struct vsc_grasp {
 
 /// The axis point nearest to `point` (m): writes its abscissa s in [0, 1] and
 /// returns its distance (m). Exact on the sample polyline (the springs'
-/// resolution, length / ((n - 1) S)); O(samples). Overwrites the rod's samples.
-double vsc_rod_nearest_abscissa(vsc_rod* rod, const double* q, const double point[3], double* abscissa);
+/// resolution, length / ((n - 1) S)); O(samples). Leaves the rod untouched.
+double vsc_rod_nearest_abscissa(const vsc_rod* rod, const double* q, const double point[3], double* abscissa);
 
 #endif  // VISCERA_VSC_GRASP_H

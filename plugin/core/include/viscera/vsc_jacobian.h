@@ -35,12 +35,9 @@ void vsc_rod_add_mass(const vsc_rod* rod, double mass_weight, double* band);
 /// layout as above). Rigid contacts come from the touch records, so call
 /// vsc_rod_forces at q first. If global_gradient is not NULL, g = dl/dq
 /// (dimensionless, 3n) is written there; K_g g g^T is never added to `band`.
-/// Overwrites the rod's samples and scratch.
+/// Overwrites the implicit scheme's scratch.
 void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q, double stiffness_weight,
                           double damping_weight, double* band, double* global_gradient);
-
-/// out += D v (N, 3n), with D as above (from the same touch records).
-void vsc_rod_add_damping_force(const vsc_rod* rod, const vsc_world* world, const double* v, double* out);
 
 /// Replace the rows and columns of the pinned control points by identity.
 void vsc_rod_pin_band(const vsc_rod* rod, double* band);

@@ -6,17 +6,14 @@
 
 #include "viscera/vsc_rod.h"
 
-/// Place the sample points from control points q (m); read them with vsc_rod_sample_point.
-void vsc_rod_update_samples(vsc_rod* rod, const double* q);
-
-/// Place the collision spheres and their velocities from q (m) and v (m/s; may
-/// be NULL: velocities are then left untouched); read them with vsc_rod_sphere_centres.
-void vsc_rod_update_spheres(vsc_rod* rod, const double* q, const double* v);
+/// Sample point `a` (m, 3) at control points q (m), leaving the rod untouched
+/// (the same bits as the elastic pass places).
+void vsc_rod_sample_point(const vsc_rod* rod, const double* q, int a, double out[3]);
 
 /// The collision spheres' centres (m) and velocities (m/s) at q and v into
-/// `centres` and `velocities` (3 per sphere, caller-owned), leaving the rod
-/// untouched: what another rod's host reads of this one (the same bits as
-/// vsc_rod_update_spheres).
+/// `centres` and `velocities` (3 per sphere, caller-owned; v may be NULL: no
+/// velocities), leaving the rod untouched: what another rod's host reads of
+/// this one (the same bits as an evaluation places).
 void vsc_rod_sphere_points(const vsc_rod* rod, const double* q, const double* v, double* centres, double* velocities);
 
 /// Q += the force f (N) acting at collision sphere `sphere`, as generalized

@@ -160,18 +160,14 @@ int vsc_rod_jacobian_half_width(const vsc_rod* rod);
 /// The rod's control points n.
 int vsc_rod_control_count(const vsc_rod* rod);
 
-/// The rod's spring sample points N (vsc_rod_update_samples, vsc_place.h, places them).
+/// The rod's spring sample points N (vsc_rod_sample_point, vsc_place.h, places one).
 int vsc_rod_sample_count(const vsc_rod* rod);
 
-/// Sample point `a` (m, 3) as the last vsc_rod_update_samples (or force
-/// evaluation) placed it.
-void vsc_rod_sample_point(const vsc_rod* rod, int a, double out[3]);
-
-/// The collision sphere centres (m, 3 per sphere) as last placed (owned by the rod).
+/// The collision sphere centres (m, 3 per sphere) as the last evaluation placed them (owned by the rod).
 const double* vsc_rod_sphere_centres(const vsc_rod* rod);
 
-/// The collision spheres' velocities (m/s, 3 per sphere) as last placed with
-/// velocities (vsc_rod_update_spheres; owned by the rod).
+/// The collision spheres' velocities (m/s, 3 per sphere) as the last
+/// evaluation with contacts placed them (owned by the rod).
 const double* vsc_rod_sphere_velocities(const vsc_rod* rod);
 
 /// Collision sphere radii (m; the tube's radius there: all `radius` unless it

@@ -27,8 +27,8 @@
 /// springs alone, every sphere pressed by a geom in every direction (a rod
 /// lying on a plane has exactly that across it), times sqrt(2) with
 /// self-collision (a pair presses two spheres). Power iteration, O(n) per
-/// iteration. Also sets rod->contact_damping_rate. Overwrites the rod's scratch
-/// (samples, stages, the implicit system).
+/// iteration, on a scratch allocated for the call (both 0 if memory ran out):
+/// nothing an evaluation reads changes. Also sets rod->contact_damping_rate.
 void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, double* elastic, double* contact);
 
 /// Fewest substeps of `integrator` for a step dt (s) with omega h within the
