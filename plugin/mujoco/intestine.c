@@ -46,28 +46,10 @@ typedef struct intestine {
   vsc_plugin_step_plan plan; // what each step takes at that timestep
   vsc_mujoco_holds holds;  // this step's holds (grasps.h)
   // contacts with the other intestine instances (partners.h): this one computes those with the
-  // higher instances and hands them loads through its own `handed`, which they read; the lower
+  // higher instances and hands them loads through its own exchange, which they read; the lower
   // ones hand it theirs
   int plugin_slot;        // viscera.intestine's index in MuJoCo's plugin table (which instances are intestines)
-  int partners_known;     // 1: the partners were looked up (at this data's first step)
-  int partner_count;      // higher instances it collides with
-  int* partners;          // their instance ids
-  int partner_geoms;      // their capsules, in all
-  int partner_spheres;    // the most spheres any of them has
-  double* partner_centres;     // a partner's sphere centres (m) and velocities (m/s) at the step start,
-  double* partner_velocities;  // 3 per sphere each (its rod is read, never written)
-  vsc_geom* all_geoms;    // MuJoCo's candidate geoms, then the partners' capsules
-  double* all_wrench;     // the reaction on each of them, averaged over a step (6 each)
-  int* handed_offset;     // per instance of the model: where this step's loads for it start in `handed` (-1: none)
-  double* handed;         // the loads this step handed each higher partner (3 per control point of each, N)
-  unsigned char* handed_any;  // per instance of the model: 1 if `handed` holds its loads this step
-  int* pressed_offset;    // per instance of the model: where its capsules start in `pressed`
-  unsigned char* pressed; // per capsule of each higher partner: 1 if a moving sphere of this one pressed it
-                          // this step (what wakes the partner's sleeping points there, as a moving geom would)
-  double* partner_waking_speed;  // per instance of the model: a sphere faster than this (m/s) wakes what it
-                                 // presses of it (VSC_SLEEP_GEOM_SPEED_SHARE of its rest_speed)
-  double* load;           // the loads several lower instances handed over this step, summed (3 per point, N)
-  unsigned char* pressed_by_several;  // per capsule: several lower instances' `pressed` flags for this one, or-ed
+  vsc_partner_exchange partners;
 } intestine;
 
 static void intestine_free(intestine* it) {
@@ -77,19 +59,7 @@ static void intestine_free(intestine* it) {
   vsc_plugin_config_free(&it->config);
   free(it->initial_q);
   free(it->geom_wrench);
-  free(it->partners);
-  free(it->partner_centres);
-  free(it->partner_velocities);
-  free(it->handed_offset);
-  free(it->handed);
-  free(it->handed_any);
-  free(it->pressed_offset);
-  free(it->pressed);
-  free(it->partner_waking_speed);
-  free(it->all_geoms);
-  free(it->all_wrench);
-  free(it->load);
-  free(it->pressed_by_several);
+  vsc_partners_free(&it->partners);
   free(it);
 }
 
@@ -112,9 +82,8 @@ static intestine* intestine_create(const mjModel* m, int instance, char* error) 
   int n = it->config.rod.control_count;
   it->initial_q = (double*)malloc(sizeof(double) * 3 * (size_t)n);
   it->geom_wrench = (double*)malloc(sizeof(double) * 6 * (size_t)(m->ngeom > 0 ? m->ngeom : 1));
-  it->load = (double*)calloc(3 * (size_t)n, sizeof(double));
-  it->pressed_by_several = (unsigned char*)calloc((size_t)it->config.rod.collision_sphere_count, 1);
-  if (!it->initial_q || !it->geom_wrench || !it->load || !it->pressed_by_several ||
+  if (!it->initial_q || !it->geom_wrench ||
+      vsc_partners_create(&it->partners, m->nplugin, n, it->config.rod.collision_sphere_count) ||
       vsc_mujoco_geoms_create(m, &it->world)) {
     strcpy(error, "viscera.intestine: out of memory");
     intestine_free(it);
@@ -479,132 +448,33 @@ static void warn_once(const mjModel* m, intestine* it, const vsc_world* world, c
   warn_start_inside(m, it, world, state);
 }
 
-// 1 if this instance's 'exclude' names instance `other`.
-static int excludes(const intestine* it, int other) {
-  for (int i = 0; i < it->config.exclude_count; ++i)
-    if (it->config.exclude[i] == other) return 1;
-  return 0;
-}
+// The exchange's view of instance `instance` (partners.h): `host` is the model and data.
+typedef struct host {
+  const mjModel* m;
+  mjData* d;
+  int slot;  // viscera.intestine's index in MuJoCo's plugin table
+} host;
 
-// The higher intestine instances this one collides with (not excluded by
-// either's 'exclude'), and room for their capsules and for the loads it hands
-// them: looked up once per data, at its first step, when every instance's
-// config can be read. 0, or -1 if memory ran out (then it has none).
-static int find_partners(const mjModel* m, mjData* d, intestine* it, int instance) {
-  it->partners_known = 1;
-  int instances = m->nplugin > 0 ? m->nplugin : 1;
-  it->partners = (int*)malloc(sizeof(int) * (size_t)instances);
-  it->handed_offset = (int*)malloc(sizeof(int) * (size_t)instances);
-  it->handed_any = (unsigned char*)calloc((size_t)instances, 1);
-  it->pressed_offset = (int*)malloc(sizeof(int) * (size_t)instances);
-  it->partner_waking_speed = (double*)calloc((size_t)instances, sizeof(double));
-  if (!it->partners || !it->handed_offset || !it->handed_any || !it->pressed_offset || !it->partner_waking_speed)
-    return -1;
-  size_t handed = 0;
-  for (int j = 0; j < m->nplugin; ++j) {
-    it->handed_offset[j] = -1;
-    it->pressed_offset[j] = it->partner_geoms;
-    if (j <= instance || m->plugin[j] != it->plugin_slot) continue;
-    intestine* other = caches(m, d, j);
-    if (!other || excludes(it, j) || excludes(other, instance)) continue;
-    int spheres = other->config.rod.collision_sphere_count;
-    it->partners[it->partner_count++] = j;
-    it->partner_geoms += spheres - 1;
-    it->partner_spheres = spheres > it->partner_spheres ? spheres : it->partner_spheres;
-    it->handed_offset[j] = (int)handed;
-    handed += 3 * (size_t)other->config.rod.control_count;
-    it->partner_waking_speed[j] = VSC_SLEEP_GEOM_SPEED_SHARE * other->config.step.sleep.rest_speed;
-  }
-  if (it->partner_count == 0) return 0;
-  size_t total = (size_t)it->world.count + (size_t)it->partner_geoms;
-  it->all_geoms = (vsc_geom*)calloc(total, sizeof(vsc_geom));
-  it->all_wrench = (double*)calloc(6 * total, sizeof(double));
-  it->partner_centres = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
-  it->partner_velocities = (double*)malloc(sizeof(double) * 3 * (size_t)it->partner_spheres);
-  it->handed = (double*)calloc(handed, sizeof(double));
-  it->pressed = (unsigned char*)calloc((size_t)it->partner_geoms, 1);
-  if (!it->all_geoms || !it->all_wrench || !it->partner_centres || !it->partner_velocities || !it->handed ||
-      !it->pressed) {
-    it->partner_count = it->partner_geoms = 0;
-    return -1;
-  }
-  return 0;
-}
-
-// The partners' tubes as capsules after MuJoCo's geoms, at the step start (their
-// states are still the step start's: lower instances advance first and only
-// hand over loads), placed from their states into this instance's own buffers.
-// Returns the geoms in all, or MuJoCo's count alone if a partner's caches
-// cannot be had.
-static int add_partner_capsules(const mjModel* m, mjData* d, intestine* it) {
-  memcpy(it->all_geoms, it->world.geoms, sizeof(vsc_geom) * (size_t)it->world.count);
-  int g = it->world.count;
-  for (int p = 0; p < it->partner_count; ++p) {
-    int j = it->partners[p];
-    const intestine* other = caches(m, d, j);
-    if (!other) return it->world.count;
-    const mjtNum* s = d->plugin_state + m->plugin_stateadr[j];
-    vsc_rod_sphere_points(other->rod, s + other->layout.offset[VSC_STATE_POSITIONS],
-                          s + other->layout.offset[VSC_STATE_VELOCITIES], it->partner_centres, it->partner_velocities);
-    double friction = fmax(it->config.rod.self_friction, other->config.rod.self_friction);  // as a geom pair's
-    int spheres = other->config.rod.collision_sphere_count;
-    vsc_partner_capsules(other->rod, it->partner_centres, it->partner_velocities, spheres, friction,
-                         0.5 * m->opt.timestep, it->all_geoms + g);
-    const double* rest = s + other->layout.offset[VSC_STATE_REST];  // a capsule between resting spheres
-    const vsc_sleep_options* sleep = &other->config.step.sleep;
-    for (int c = 0, before = vsc_sleep_sphere_resting(other->rod, sleep, rest, 0); c + 1 < spheres; ++c) {  // chatters
-      int after = vsc_sleep_sphere_resting(other->rod, sleep, rest, c + 1);
-      it->all_geoms[g + c].resting = before && after;
-      before = after;
-    }
-    g += spheres - 1;
-  }
-  return g;
-}
-
-// The capsules of this instance that the lower ones' moving spheres pressed
-// this step, which the step wakes (vsc_world.wake_capsules): one's flags as they
-// are, read from its own buffer, several or-ed into this one's. NULL if none did.
-// A load from a partner at rest lets the points under it sleep, as a resting geom does.
-static const unsigned char* pressed_capsules(const mjModel* m, const mjData* d, intestine* it, int instance) {
-  const unsigned char* pressed = NULL;
-  int senders = 0, capsules = it->config.rod.collision_sphere_count - 1;
-  for (int i = 0; i < instance; ++i) {
-    if (m->plugin[i] != it->plugin_slot) continue;
-    const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
-    if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
-    const unsigned char* part = lower->pressed + lower->pressed_offset[instance];
-    if (++senders == 1) {
-      pressed = part;
-      continue;
-    }
-    if (senders == 2) memcpy(it->pressed_by_several, pressed, (size_t)capsules);
-    for (int c = 0; c < capsules; ++c) it->pressed_by_several[c] |= part[c];
-    pressed = it->pressed_by_several;
-  }
-  return pressed;
-}
-
-// The loads the lower instances handed this one this step (they advanced
-// first), read from their own buffers: one's as it is, several summed in
-// instance order into `load`. NULL if none did.
-static const double* received_load(const mjModel* m, const mjData* d, intestine* it, int instance) {
-  const double* received = NULL;
-  int senders = 0, size = 3 * it->config.rod.control_count;
-  for (int i = 0; i < instance; ++i) {
-    if (m->plugin[i] != it->plugin_slot) continue;
-    const intestine* lower = (const intestine*)vsc_caches_resolve(d, i);
-    if (!lower || lower->model != m || !lower->handed_any || !lower->handed_any[instance]) continue;
-    const double* part = lower->handed + lower->handed_offset[instance];
-    if (++senders == 1) {
-      received = part;
-      continue;
-    }
-    if (senders == 2) memcpy(it->load, received, sizeof(double) * (size_t)size);
-    for (int k = 0; k < size; ++k) it->load[k] += part[k];
-    received = it->load;
-  }
-  return received;
+static vsc_partner_view view_of(void* data, int instance, int build) {
+  host* h = (host*)data;
+  vsc_partner_view view;
+  memset(&view, 0, sizeof(view));
+  if (h->m->plugin[instance] != h->slot) return view;
+  intestine* it = build ? caches(h->m, h->d, instance) : (intestine*)vsc_caches_resolve(h->d, instance);
+  if (!it || it->model != h->m) return view;
+  const mjtNum* s = h->d->plugin_state + h->m->plugin_stateadr[instance];
+  view.rod = it->rod;
+  view.positions = s + it->layout.offset[VSC_STATE_POSITIONS];
+  view.velocities = s + it->layout.offset[VSC_STATE_VELOCITIES];
+  view.rest = s + it->layout.offset[VSC_STATE_REST];
+  view.control_count = it->config.rod.control_count;
+  view.spheres = it->config.rod.collision_sphere_count;
+  view.self_friction = it->config.rod.self_friction;
+  view.sleep = &it->config.step.sleep;
+  view.exclude = it->config.exclude;
+  view.exclude_count = it->config.exclude_count;
+  view.exchange = &it->partners;
+  return view;
 }
 
 // Gather: MuJoCo's side of the step, as the core's world. Gravity, the geoms'
@@ -625,54 +495,19 @@ static vsc_world gather(const mjModel* m, mjData* d, intestine* it, mjtNum* stat
   warn_once(m, it, &world, state);
   reactions->geom_wrench = it->geom_wrench;
   reactions->grasp_force = it->holds.reaction;
-  if (!it->partners_known && find_partners(m, d, it, instance))
-    mju_warning("viscera.intestine: out of memory: instance %d does not collide with the other intestines", instance);
-  if (it->partner_count > 0 && contacts_enabled(m)) {
-    world.geoms = it->all_geoms;
-    world.geom_count = add_partner_capsules(m, d, it);
-    reactions->geom_wrench = it->all_wrench;
+  host h = {m, d, it->plugin_slot};
+  if (!it->partners.known) {
+    vsc_partner_view own = view_of(&h, instance, 0);
+    if (vsc_partners_find(&it->partners, view_of, &h, instance, &own, it->world.count))
+      mju_warning("viscera.intestine: out of memory: instance %d does not collide with the other intestines", instance);
   }
+  vsc_partners_gather(&it->partners, view_of, &h, instance, contacts_enabled(m), it->world.geoms, it->world.count,
+                      it->config.rod.self_friction, m->opt.timestep, &world, reactions);
   sanitize_stick(state + l.offset[VSC_STATE_FRICTION], it->config.rod.collision_sphere_count, world.geom_count);
-  const double* load = received_load(m, d, it, instance);
-  if (load) {
-    world.wake_capsules = pressed_capsules(m, d, it, instance);
-    world.control_load = load;
-  }
   world.grasps = it->holds.grasps;
   world.grasp_count = vsc_mujoco_holds_update(m, d, &it->config.grasp, it->rod, state,
                                               state + l.offset[VSC_STATE_GRASPS], &it->holds);
   return world;
-}
-
-typedef struct pressing {
-  intestine* it;
-  const double* rest;  // this instance's rest records, after its step
-  int geoms;  // this step's geoms in all: MuJoCo's, then the partners' capsules
-} pressing;
-
-// A contact of this instance's sphere a against a partner's capsule b: flag the
-// capsule if the sphere moved (faster than a geom must to wake a sleeping
-// sphere it touches, unless its points rest: chatter) or pressed deeper than a
-// sleeping sphere may be pressed: the rules vsc_sleep.h gives a geom, with this
-// instance as the geom.
-static void flag_pressed(void* data, int rigid, int a, int b, double speed, double depth) {
-  (void)speed;  // the relative speed counts the partner's own motion; the sphere's alone wakes it
-  pressing* p = (pressing*)data;
-  intestine* it = p->it;
-  if (!rigid || b < it->world.count || b >= p->geoms) return;
-  int capsule = b - it->world.count, j = -1;  // whose: the partner whose capsules span b
-  for (int q = 0; q < it->partner_count; ++q) {
-    int first = it->pressed_offset[it->partners[q]];
-    int count = q + 1 < it->partner_count ? it->pressed_offset[it->partners[q + 1]] - first : it->partner_geoms - first;
-    if (capsule >= first && capsule < first + count) j = it->partners[q];
-  }
-  if (j < 0) return;
-  const double* v = vsc_rod_sphere_velocities(it->rod) + 3 * a;
-  double moving = it->partner_waking_speed[j];
-  int chatter = vsc_sleep_sphere_resting(it->rod, &it->config.step.sleep, p->rest, a);
-  if ((!chatter && v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > moving * moving) ||
-      depth > VSC_SLEEP_WAKE_DEPTH * it->all_geoms[b].size[0])
-    it->pressed[capsule] = 1;
 }
 
 // Scatter: the step's average reaction per body, as force and torque about its
@@ -704,22 +539,9 @@ static void scatter(const mjModel* m, mjData* d, intestine* it, const vsc_world*
     if (it->holds.pinch[h] > 0.0)
       vsc_damage_pinch(&it->config.damage, n, it->holds.grasps[h].abscissa, it->holds.pinch[h], m->opt.timestep, damage);
   vsc_damage_stretch(&it->config.damage, n, it->config.rod.length, state + l.offset[VSC_STATE_POSITIONS], damage);
-  if (world->geom_count <= it->world.count) return;  // no partner this step
-  int g = it->world.count;
-  for (int p = 0; p < it->partner_count; ++p) {
-    int j = it->partners[p];
-    const intestine* other = caches(m, d, j);
-    if (!other) return;  // (its capsules were added this step, so its caches exist)
-    int spheres = other->config.rod.collision_sphere_count;
-    double* handed = it->handed + it->handed_offset[j];
-    memset(handed, 0, sizeof(double) * 3 * (size_t)other->config.rod.control_count);
-    vsc_partner_add_load(other->rod, spheres, world->geoms + g, reactions->geom_wrench + 6 * g, handed);
-    memset(it->pressed + it->pressed_offset[j], 0, (size_t)(spheres - 1));
-    it->handed_any[j] = 1;
-    g += spheres - 1;
-  }
-  pressing request = {it, state + l.offset[VSC_STATE_REST], world->geom_count};
-  vsc_rod_visit_contacts(it->rod, flag_pressed, &request);
+  host h = {m, d, it->plugin_slot};
+  vsc_partners_scatter(&it->partners, view_of, &h, it->rod, &it->config.step.sleep, state + l.offset[VSC_STATE_REST],
+                       it->world.count, world, reactions);
 }
 
 // Count a diverged or recovered step in the state; warn at counts 1, 2, 4, 8...: no spam.
@@ -741,11 +563,6 @@ static void count_trouble(const mjData* d, intestine* it, mjtNum* state, vsc_sta
   }
 }
 
-// The loads handed over last step were felt: none yet this step.
-static void clear_handed(const mjModel* m, intestine* it) {
-  if (it->handed_any) memset(it->handed_any, 0, (size_t)(m->nplugin > 0 ? m->nplugin : 1));
-}
-
 // One MuJoCo step of the rod, top to bottom: gather MuJoCo's side into the
 // core's world, step the rod against the geoms' poses at the step start,
 // scatter the reactions back, count trouble.
@@ -753,7 +570,7 @@ static void intestine_advance(const mjModel* m, mjData* d, int instance) {
   intestine* it = caches(m, d, instance);
   if (!it) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  clear_handed(m, it);
+  vsc_partners_clear_handed(&it->partners);
   if (restart_if_not_finite(m, it, instance, state)) return;
   const vsc_state_layout l = it->layout;
   vsc_reactions reactions;

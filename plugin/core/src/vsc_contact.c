@@ -413,12 +413,13 @@ static double spring_energy(const vsc_rod* rod, double depth, double radius) {
   return depth < cap ? 0.5 * k * depth * depth : k * cap * (depth - 0.5 * cap);
 }
 
-// Penalty potential of one sphere-geom candidate (J), and the deepest rigid contact.
-static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, const double* xyz, int g, int i,
+// Penalty potential of one sphere-geom candidate at q (J), and the deepest rigid contact;
+// the sphere placed where it is needed (the same bits as the evaluation's placement).
+static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, const double* q, int g, int i,
                                  vsc_deepest_contact* deepest) {
   const vsc_geom* geom = &world->geoms[g];
-  double r = rod->sphere_radius[i], n[3];
-  const double* x = xyz + 3 * i;
+  double r = rod->sphere_radius[i], n[3], x[3];
+  vsc_basis_point(&rod->sphere_basis[i], q, x);
   if (geom->bound_radius > 0.0) {
     double dx = x[0] - geom->position[0], dy = x[1] - geom->position[1], dz = x[2] - geom->position[2];
     double reach = geom->bound_radius + r;
@@ -434,10 +435,14 @@ static double sphere_geom_energy(const vsc_rod* rod, const vsc_world* world, con
   return spring_energy(rod, depth, r);
 }
 
-static double self_pair_energy(const vsc_rod* rod, const double* x, int a, int b) {
+static double self_pair_energy(const vsc_rod* rod, const double* q, int a, int b) {
   if (b - a < rod->self_gap) return 0.0;
-  double s, t, d[3];
-  double distance = vsc_segment_gap(x, a, b, &s, &t, d);
+  double ends[12], s, t, d[3];  // segment a's spheres, then b's
+  vsc_basis_point(&rod->sphere_basis[a], q, ends);
+  vsc_basis_point(&rod->sphere_basis[a + 1], q, ends + 3);
+  vsc_basis_point(&rod->sphere_basis[b], q, ends + 6);
+  vsc_basis_point(&rod->sphere_basis[b + 1], q, ends + 9);
+  double distance = vsc_segment_gap(ends, 0, 2, &s, &t, d);
   double ra = rod->def.radius, rb = ra;
   if (rod->tapered) {
     const double* R = rod->sphere_radius;
@@ -447,8 +452,8 @@ static double self_pair_energy(const vsc_rod* rod, const double* x, int a, int b
   return depth > 0.0 ? spring_energy(rod, depth, 0.5 * (ra + rb)) : 0.0;
 }
 
-double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* x, const vsc_contact_lists* lists,
-                          vsc_deepest_contact* deepest) {
+double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q, const vsc_contact_lists* lists,
+                          int listed, vsc_deepest_contact* deepest) {
   if (deepest) {
     deepest->depth = 0.0;
     deepest->geom = deepest->sphere = -1;
@@ -456,19 +461,19 @@ double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const doub
   if (world->geom_count <= 0 && !rod->def.self_collision) return 0.0;
   int spheres = rod->def.collision_sphere_count;
   double energy = 0.0;
-  // the forces' candidate lists where they still cover x, so the energy costs one narrow phase;
-  // else every pair, in the lists' order: the same terms in the same order, the same bits
-  if (!lists || !vsc_contact_lists_cover(lists, rod, x, world)) {
+  // the candidate lists, so the energy costs one narrow phase; if they overflowed, every pair,
+  // in the lists' order: the same terms in the same order, the same bits
+  if (!listed) {
     for (int a = 0; a + 1 < spheres && rod->def.self_collision; ++a)
-      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) energy += self_pair_energy(rod, x, a, b);
+      for (int b = a + rod->self_gap; b + 1 < spheres; ++b) energy += self_pair_energy(rod, q, a, b);
     for (int g = 0; g < world->geom_count; ++g)
-      for (int i = 0; i < spheres; ++i) energy += sphere_geom_energy(rod, world, x, g, i, deepest);
+      for (int i = 0; i < spheres; ++i) energy += sphere_geom_energy(rod, world, q, g, i, deepest);
     return energy;
   }
   const vsc_contact_lists* l = lists;
   for (int k = 0; k < l->self_count && rod->def.self_collision; ++k)
-    energy += self_pair_energy(rod, x, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
+    energy += self_pair_energy(rod, q, l->self_pairs[2 * k], l->self_pairs[2 * k + 1]);
   for (int k = 0; k < l->geom_count; ++k)
-    energy += sphere_geom_energy(rod, world, x, l->geom_pairs[2 * k], l->geom_pairs[2 * k + 1], deepest);
+    energy += sphere_geom_energy(rod, world, q, l->geom_pairs[2 * k], l->geom_pairs[2 * k + 1], deepest);
   return energy;
 }

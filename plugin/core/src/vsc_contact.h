@@ -44,11 +44,12 @@ void vsc_contact_pass_free(vsc_contact_pass* pass);
 void vsc_contact_visit(const vsc_contact_pass* pass,
                        void (*visit)(void* data, int rigid, int a, int b, double speed, double depth), void* data);
 
-/// The penalty's potential at sphere centres x (m, 3 per sphere), as
-/// vsc_rod_contact_energy: through `lists` where they cover x
-/// (vsc_contact_lists_cover), else every pair, the same bits either way.
-/// Writes nothing but `deepest` (may be NULL).
-double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* x, const vsc_contact_lists* lists,
-                          vsc_deepest_contact* deepest);
+/// The penalty's potential at control points q (m), as vsc_rod_contact_energy:
+/// through `lists`, which must cover q (vsc_contact_lists_cover, or refreshed
+/// there), or with `listed` 0 (they overflowed) every pair: the same bits
+/// either way. The spheres are placed where they are needed. Writes nothing
+/// but `deepest` (may be NULL).
+double vsc_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q, const vsc_contact_lists* lists,
+                          int listed, vsc_deepest_contact* deepest);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_H

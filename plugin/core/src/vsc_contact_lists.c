@@ -579,20 +579,23 @@ int vsc_contact_lists_refresh(const vsc_rod* rod, vsc_contact_lists* l, const do
   return 1;
 }
 
-// 1 if every sphere of x lies within half the margin of `snapshot` (3 per sphere); no writes.
-static int spheres_within(const vsc_rod* rod, const double* x, const double* snapshot) {
+// 1 if every sphere at control points q lies within half the margin of `snapshot` (3 per
+// sphere), each placed where it is needed; no writes.
+static int spheres_within(const vsc_rod* rod, const double* q, const double* snapshot) {
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   for (int i = 0; i < rod->def.collision_sphere_count; ++i) {
-    double dx = x[3 * i] - snapshot[3 * i], dy = x[3 * i + 1] - snapshot[3 * i + 1], dz = x[3 * i + 2] - snapshot[3 * i + 2];
+    double x[3];
+    vsc_basis_point(&rod->sphere_basis[i], q, x);
+    double dx = x[0] - snapshot[3 * i], dy = x[1] - snapshot[3 * i + 1], dz = x[2] - snapshot[3 * i + 2];
     if (!(sqrt(dx * dx + dy * dy + dz * dz) <= half)) return 0;
   }
   return 1;
 }
 
-int vsc_contact_lists_cover(const vsc_contact_lists* l, const vsc_rod* rod, const double* x, const vsc_world* world) {
-  if (rod->def.self_collision && !(l->self_built && spheres_within(rod, x, l->sphere_xyz))) return 0;
+int vsc_contact_lists_cover(const vsc_contact_lists* l, const vsc_rod* rod, const double* q, const vsc_world* world) {
+  if (rod->def.self_collision && !(l->self_built && spheres_within(rod, q, l->sphere_xyz))) return 0;
   if (!l->geoms_built || l->built_geoms != world->geom_count || l->geoms != world->geoms ||
-      !spheres_within(rod, x, l->geom_sphere_xyz))
+      !spheres_within(rod, q, l->geom_sphere_xyz))
     return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   for (int g = 0; g < world->geom_count; ++g) {  // as geoms_valid: no geom past half the margin

@@ -66,10 +66,10 @@ double vsc_contact_lists_memory_bytes(int sphere_count);
 /// midpoint and half length in `segment`; the lists are rebuilt next time).
 int vsc_contact_lists_refresh(const vsc_rod* rod, vsc_contact_lists* lists, const double* x, const vsc_world* world);
 
-/// 1 if the lists, as they stand, hold every pair that can touch at sphere
-/// centres x (m) and the world's geom poses (nothing moved past half the
-/// margin since their builds); 0 if they would need a rebuild. Writes nothing:
-/// the divergence guard's energy query reads them so.
-int vsc_contact_lists_cover(const vsc_contact_lists* lists, const vsc_rod* rod, const double* x, const vsc_world* world);
+/// 1 if the lists, as they stand, hold every pair that can touch with the
+/// rod at control points q (m) and the world's geom poses (no sphere or geom
+/// moved past half the margin since their builds); 0 if they would need a
+/// rebuild. Writes nothing: the energy queries read the lists so.
+int vsc_contact_lists_cover(const vsc_contact_lists* lists, const vsc_rod* rod, const double* q, const vsc_world* world);
 
 #endif  // VISCERA_SRC_VSC_CONTACT_LISTS_H

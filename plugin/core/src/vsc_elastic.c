@@ -239,11 +239,6 @@ void vsc_elastic_length_gradient(const vsc_rod* rod, vsc_elastic_scratch* s, con
   gather_to_control(rod, s, asleep, gradient);
 }
 
-double vsc_elastic_length(const vsc_rod* rod, vsc_elastic_scratch* s, const double* q) {
-  vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
-  return spring_edges(rod, s, 1);
-}
-
 // Mesentery tether i: from the axis at abscissa (i + 1/2) / count to the
 // same fraction of the root line; it pulls only when longer than its slack
 // length: E_i = 1/2 k max(0, d - L)^2. Adds -dE/dq to Q if Q is not NULL;
@@ -282,22 +277,82 @@ void vsc_elastic_scratch_carve(vsc_elastic_scratch* s, double* block, int N) {
   for (int i = 0; i < 10; ++i) *arrays[i] = block + (size_t)i * (size_t)N;
 }
 
-double vsc_elastic_energy(const vsc_rod* rod, vsc_elastic_scratch* s, const double* q) {
+void vsc_elastic_place(const vsc_rod* rod, vsc_elastic_scratch* s, const double* q) {
   vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
-  int N = rod->sample_count;
-  double e = 0.0, dl = spring_edges(rod, s, 1) - rod->def.length;
-  for (int a = 0; a + 1 < N; ++a) {
-    double d = s->edge_length[a] - rod->rest_spacing;
-    e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
-  }
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_bending(rod, s, 0);
-  if (N > 2) {
-    spring_edges(rod, s, 2);
-    for (int a = 0; a + 2 < N; ++a) {
-      double d = s->edge_length[a] - 2.0 * rod->rest_spacing;
-      e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
-    }
-  }
-  return e;
 }
 
+// The energy and the length below place no samples: each sample and spring is computed
+// where it is needed, with the same operations in the same order as the forces' arrays,
+// so they give the same bits and write nothing (the divergence guard's pass).
+
+// Length of the spring from sample a to a + gap at q (m).
+static double spring_length(const vsc_rod* rod, const double* q, int a, int gap) {
+  double p[3], r[3];
+  vsc_rod_sample_point(rod, q, a, p);
+  vsc_rod_sample_point(rod, q, a + gap, r);
+  double dx = r[0] - p[0], dy = r[1] - p[1], dz = r[2] - p[2];
+  return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+double vsc_rod_length(const vsc_rod* rod, const double* q) {
+  double total = 0.0;
+  for (int a = 0; a + 1 < rod->sample_count; ++a) total += spring_length(rod, q, a, 1);
+  return total;
+}
+
+// Curvature bending's energy at q (J), as curvature_bending's without forces.
+static double curvature_energy(const vsc_rod* rod, const double* q) {
+  int N = rod->sample_count;
+  double k0 = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
+  if (!(k0 > 0.0) || N < 3) return 0.0;
+  const double* section = rod->curvature_scale;  // NULL untapered
+  double before[3], here[3], after[3];
+  vsc_rod_sample_point(rod, q, 0, here);
+  vsc_rod_sample_point(rod, q, 1, after);
+  for (int a = 1; a + 1 < N; ++a) {
+    for (int c = 0; c < 3; ++c) before[c] = here[c], here[c] = after[c];
+    vsc_rod_sample_point(rod, q, a + 1, after);
+    double u[3] = {here[0] - before[0], here[1] - before[1], here[2] - before[2]};
+    double w[3] = {after[0] - here[0], after[1] - here[1], after[2] - here[2]};
+    double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    double inverse = 1.0 / sqrt(uu * ww);
+    if (!isfinite(inverse)) continue;
+    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse, k = section ? k0 * section[a] : k0;
+    energy += k * (1.0 - c);
+  }
+  int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
+  const double* direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
+  for (int end = 0; end < 2; ++end) {
+    if (!clamped[end]) continue;
+    int a = end ? N - 2 : 0;
+    double k = section ? k0 * section[end ? N - 1 : 0] : k0;
+    const double* t = direction[end];
+    double p[3], r[3];
+    vsc_rod_sample_point(rod, q, a, p);
+    vsc_rod_sample_point(rod, q, a + 1, r);
+    double e[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+    double length = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    if (!(length > 0.0)) continue;
+    double c = (t[0] * e[0] + t[1] * e[1] + t[2] * e[2]) / length;
+    energy += 2.0 * k * (1.0 - c);
+  }
+  return energy;
+}
+
+double vsc_rod_elastic_energy(const vsc_rod* rod, const double* q) {
+  int N = rod->sample_count;
+  double e = 0.0, total = 0.0;
+  for (int a = 0; a + 1 < N; ++a) {  // the stretch springs, and their lengths' sum
+    double l = spring_length(rod, q, a, 1), d = l - rod->rest_spacing;
+    total += l;
+    e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
+  }
+  double dl = total - rod->def.length;
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_energy(rod, q);
+  if (N > 2)
+    for (int a = 0; a + 2 < N; ++a) {
+      double d = spring_length(rod, q, a, 2) - 2.0 * rod->rest_spacing;
+      e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
+    }
+  return e;
+}

@@ -40,9 +40,8 @@ void vsc_elastic_add_forces(const vsc_rod* rod, vsc_elastic_scratch* scratch, co
 void vsc_elastic_length_gradient(const vsc_rod* rod, vsc_elastic_scratch* scratch, const unsigned char* asleep,
                                  double* gradient);
 
-/// The elastic energy at q (J, vsc_rod_elastic_energy's), and the axis length
-/// l (m), on the samples placed in `scratch`.
-double vsc_elastic_energy(const vsc_rod* rod, vsc_elastic_scratch* scratch, const double* q);
-double vsc_elastic_length(const vsc_rod* rod, vsc_elastic_scratch* scratch, const double* q);
+/// Place the samples at q (m) in `scratch`, as vsc_elastic_add_forces does
+/// (what the Jacobian reads).
+void vsc_elastic_place(const vsc_rod* rod, vsc_elastic_scratch* scratch, const double* q);
 
 #endif  // VISCERA_SRC_VSC_ELASTIC_H

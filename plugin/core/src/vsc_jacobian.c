@@ -94,35 +94,29 @@ static void add_pair(vsc_jacobian_scratch* j, int a, int b, const double H[9]) {
   add_sample(j, b, a, -1.0, H);
 }
 
-static double edge(const vsc_jacobian_scratch* j, int a, int b, double e[3]) {
-  e[0] = j->sample_x[b] - j->sample_x[a];
-  e[1] = j->sample_y[b] - j->sample_y[a];
-  e[2] = j->sample_z[b] - j->sample_z[a];
+static double edge(const vsc_elastic_scratch* p, int a, int b, double e[3]) {
+  e[0] = p->sample_x[b] - p->sample_x[a];
+  e[1] = p->sample_y[b] - p->sample_y[a];
+  e[2] = p->sample_z[b] - p->sample_z[a];
   return sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
 }
 
 // Elastic sample blocks; returns the global term's tension (N). Samples must be current.
-static double elastic_sample_hessian(const vsc_rod* rod, vsc_jacobian_scratch* j, double* global_gradient_samples) {
+static double elastic_sample_hessian(const vsc_rod* rod, vsc_jacobian_scratch* j, const vsc_elastic_scratch* p) {
   int N = rod->sample_count;
   double l0 = rod->rest_spacing, H[9], e[3];
   memset(j->sample_hessian, 0, sizeof(double) * 27 * (size_t)N);
   double length = 0.0;
-  for (int a = 0; a + 1 < N; ++a) length += edge(j, a, a + 1, e);
+  for (int a = 0; a + 1 < N; ++a) length += edge(p, a, a + 1, e);
   double global_tension = rod->def.global_stretch_stiffness * (length - rod->def.length);
-  if (global_gradient_samples) memset(global_gradient_samples, 0, sizeof(double) * 3 * (size_t)N);
   for (int a = 0; a + 1 < N; ++a) {
-    double l = edge(j, a, a + 1, e), k = rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0);
+    double l = edge(p, a, a + 1, e), k = rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0);
     spring_hessian(e, l, k, k * (l - l0) + global_tension, H);
     add_pair(j, a, a + 1, H);
-    if (global_gradient_samples && l > 0.0)  // dl/dp: -e/l at the first sample, +e/l at the second
-      for (int c = 0; c < 3; ++c) {
-        global_gradient_samples[3 * a + c] -= e[c] / l;
-        global_gradient_samples[3 * (a + 1) + c] += e[c] / l;
-      }
   }
   if (rod->bend_spring > 0.0)
     for (int a = 0; a + 2 < N; ++a) {
-      double l = edge(j, a, a + 2, e), k = rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0);
+      double l = edge(p, a, a + 2, e), k = rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0);
       spring_hessian(e, l, k, k * (l - 2.0 * l0), H);
       add_pair(j, a, a + 2, H);
     }
@@ -132,7 +126,7 @@ static double elastic_sample_hessian(const vsc_rod* rod, vsc_jacobian_scratch* j
   for (int a = 1; a + 1 < N; ++a) {
     double k = section ? k0 * section[a] : k0;
     double u[3], v[3], X[9], Y[9], XY[9], T[9];
-    double lu = edge(j, a - 1, a, u), lv = edge(j, a, a + 1, v);
+    double lu = edge(p, a - 1, a, u), lv = edge(p, a, a + 1, v);
     if (!(lu > 0.0) || !(lv > 0.0)) continue;
     unit_derivative(u, lu, X);  // d(u/|u|)/du, symmetric, and X X = X / |u| (a projector over |u|)
     unit_derivative(v, lv, Y);
@@ -159,7 +153,7 @@ static double elastic_sample_hessian(const vsc_rod* rod, vsc_jacobian_scratch* j
     if (!clamped[end]) continue;
     int a = end ? N - 2 : 0;
     double k = section ? k0 * section[end ? N - 1 : 0] : k0;
-    double l = edge(j, a, a + 1, e), P[9];
+    double l = edge(p, a, a + 1, e), P[9];
     if (!(l > 0.0)) continue;
     unit_derivative(e, l, P);  // 2k (I - e e^T / l^2) / l^2 = 2k P P
     multiply(P, P, 2.0 * k, H);
@@ -201,27 +195,36 @@ static void project_samples(const vsc_rod* rod, vsc_jacobian_scratch* j, double 
 }
 
 void vsc_jacobian_scratch_carve(vsc_jacobian_scratch* j, double* block, int N) {
+  (void)N;
   j->sample_hessian = block;
-  j->sample_x = block + 27 * (size_t)N;
-  j->sample_y = j->sample_x + N;
-  j->sample_z = j->sample_y + N;
-  j->gradient_samples = j->sample_z + N;
 }
 
-void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* j, const vsc_touch_records* touch,
-                      const vsc_world* world, const double* q, double stiffness_weight, double damping_weight,
-                      double* band, double* global_gradient) {
+// dl/dp at sample a (3): +e/l of the spring before it, -e/l of the one after (none past the ends,
+// nor for a collapsed spring), summed in that order from zero.
+static void sample_length_gradient(const vsc_elastic_scratch* p, int N, int a, double g[3]) {
+  double before[3], after[3];
+  double l_before = a > 0 ? edge(p, a - 1, a, before) : 0.0, l_after = a + 1 < N ? edge(p, a, a + 1, after) : 0.0;
+  for (int c = 0; c < 3; ++c) {
+    g[c] = 0.0;
+    if (l_before > 0.0) g[c] += before[c] / l_before;
+    if (l_after > 0.0) g[c] -= after[c] / l_after;
+  }
+}
+
+void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* j, const vsc_elastic_scratch* placed,
+                      const vsc_touch_records* touch, const vsc_world* world, const double* q, double stiffness_weight,
+                      double damping_weight, double* band, double* global_gradient) {
   int w = rod->jacobian_half_width, n = rod->n;
-  vsc_place_samples(rod, q, j->sample_x, j->sample_y, j->sample_z);
-  double* gradient_samples = global_gradient ? j->gradient_samples : NULL;
-  elastic_sample_hessian(rod, j, gradient_samples);
+  elastic_sample_hessian(rod, j, placed);
   project_samples(rod, j, stiffness_weight, band);
   if (global_gradient) {
     memset(global_gradient, 0, sizeof(double) * 3 * (size_t)n);
     for (int a = 0; a < rod->sample_count; ++a) {
       const vsc_basis* b = &rod->sample_basis[a];
+      double g[3];
+      sample_length_gradient(placed, rod->sample_count, a, g);
       for (int i = 0; i < VSC_SPLINE_SUPPORT; ++i)
-        for (int c = 0; c < 3; ++c) global_gradient[3 * (b->first + i) + c] += b->weight[i] * gradient_samples[3 * a + c];
+        for (int c = 0; c < 3; ++c) global_gradient[3 * (b->first + i) + c] += b->weight[i] * g[c];
     }
   }
   const vsc_rod_def* d = &rod->def;

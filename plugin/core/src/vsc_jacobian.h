@@ -4,28 +4,25 @@
 #define VISCERA_SRC_VSC_JACOBIAN_H
 
 #include "viscera/vsc_jacobian.h"
+#include "vsc_elastic.h"
 #include "vsc_touch.h"
 
 /// A Jacobian's scratch, owned by whoever assembles it (the implicit scheme,
-/// the stability estimate): sample-level blocks (27 N), the samples it
-/// places (3 x N) and the global term's sample gradient (3 N): 33 N doubles.
+/// the stability estimate): the sample-level blocks.
 typedef struct vsc_jacobian_scratch {
-  double* sample_hessian;    ///< 3 x 3 x 3 per sample (vsc_jacobian.c)
-  double* sample_x;          ///< sample positions (m)
-  double* sample_y;
-  double* sample_z;
-  double* gradient_samples;  ///< dl/dp per sample (3 N)
+  double* sample_hessian;  ///< 3 x 3 x 3 per sample (vsc_jacobian.c)
 } vsc_jacobian_scratch;
 
 /// Doubles a Jacobian's scratch holds for N samples.
-#define VSC_JACOBIAN_SCRATCH_DOUBLES(N) (33 * (N))
+#define VSC_JACOBIAN_SCRATCH_DOUBLES(N) (27 * (N))
 
 /// Point a scratch's arrays into `block` (VSC_JACOBIAN_SCRATCH_DOUBLES(N), caller-owned).
 void vsc_jacobian_scratch_carve(vsc_jacobian_scratch* scratch, double* block, int sample_count);
 
-/// vsc_rod_add_jacobian on `scratch`, with rigid contacts from `touch` (NULL: none).
-void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* scratch, const vsc_touch_records* touch,
-                      const vsc_world* world, const double* q, double stiffness_weight, double damping_weight,
+/// vsc_rod_add_jacobian on `scratch`, at the samples `placed` holds (the
+/// elastic pass's, placed at q), with rigid contacts from `touch` (NULL: none).
+void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* scratch, const vsc_elastic_scratch* placed,
+                      const vsc_touch_records* touch, const vsc_world* world, const double* q, double stiffness_weight, double damping_weight,
                       double* band, double* global_gradient);
 
 /// out += D v (N, 3n), D the damping part of the Jacobian, from the same touch records.

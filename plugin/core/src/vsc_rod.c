@@ -13,7 +13,6 @@
 #include "viscera/vsc_friction.h"
 #include "vsc_contact.h"
 #include "vsc_elastic.h"
-#include "vsc_energy.h"
 #include "vsc_place.h"
 #include "vsc_schemes.h"
 #include "vsc_sleep.h"
@@ -246,10 +245,10 @@ enum {
   ARRAY_SPHERE_VELOCITY, // 3 per sphere
   ARRAY_SPHERE_RADIUS,   // 1 per sphere
   ARRAY_STAGE,           // 8 x 3n
-  ARRAY_JACOBIAN,        // 33 N: the implicit step's Jacobian scratch
+  ARRAY_JACOBIAN,        // 27 N: the implicit step's Jacobian scratch
   ARRAY_SYSTEM,          // 3n x (half width + 1), at the half width's bound
   ARRAY_FACTOR_ROW,      // half width + 1
-  ARRAY_BACKUP,          // the step's backup and the energy queries' scratch (VSC_STEP_BACKUP_DOUBLES)
+  ARRAY_BACKUP,          // the step's backup (VSC_STEP_BACKUP_DOUBLES)
   ARRAY_TOUCH,           // VSC_TOUCH_SIZE per sphere
   ARRAY_CONTACT_LOAD,    // 1 per sphere, then 2n
   ARRAY_DAMPING_SCALE,   // 1 per sphere
@@ -285,7 +284,7 @@ static void array_bytes(const vsc_rod_def* def, double bytes[ARRAY_COUNT]) {
   bytes[ARRAY_JACOBIAN] = VSC_JACOBIAN_SCRATCH_DOUBLES(N) * d;
   bytes[ARRAY_SYSTEM] = 3.0 * n * (half_width + 1.0) * d;
   bytes[ARRAY_FACTOR_ROW] = (half_width + 1.0) * d;
-  bytes[ARRAY_BACKUP] = VSC_STEP_BACKUP_DOUBLES(n, N, spheres) * d;
+  bytes[ARRAY_BACKUP] = VSC_STEP_BACKUP_DOUBLES(n, spheres) * d;
   bytes[ARRAY_TOUCH] = VSC_TOUCH_SIZE * spheres * d;
   bytes[ARRAY_CONTACT_LOAD] = (spheres + 2.0 * n) * d;
   bytes[ARRAY_DAMPING_SCALE] = spheres * d;
@@ -362,7 +361,7 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   stage->scheme->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
   vsc_jacobian_scratch_carve(&stage->scheme->jacobian, (double*)AT(ARRAY_JACOBIAN), N);
   stage->backup = &states->backup;
-  vsc_step_backup_carve(stage->backup, (double*)AT(ARRAY_BACKUP), n, N, spheres);
+  vsc_step_backup_carve(stage->backup, (double*)AT(ARRAY_BACKUP), n, spheres);
   if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {
     int N = (def->control_count - 1) * def->samples_per_segment + 1;
     rod->stretch_scale = (double*)AT(ARRAY_SECTION_SCALE);
@@ -471,30 +470,10 @@ const double* vsc_rod_sphere_radii(const vsc_rod* rod) { return rod->sphere_radi
 
 int vsc_rod_jacobian_half_width(const vsc_rod* rod) { return rod->jacobian_half_width; }
 
-// The public queries: each hands one stage its state, or works on the energy
-// queries' scratch (the step's backup), so nothing an evaluation reads changes.
-
-double vsc_rod_elastic_energy(vsc_rod* rod, const double* q) {
-  return vsc_elastic_energy(rod, &rod->stages.backup->energy_elastic, q);
-}
-
-double vsc_rod_length(vsc_rod* rod, const double* q) {
-  return vsc_elastic_length(rod, &rod->stages.backup->energy_elastic, q);
-}
-
-double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v) {
-  return vsc_energy_kinetic(rod, v, rod->stages.backup->energy_mass_times_v);
-}
-
-double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v) {
-  vsc_step_backup* b = rod->stages.backup;
-  return vsc_energy_active(rod, &b->energy_elastic, b->energy_mass_times_v, q, v);
-}
+// The public queries that need a stage's state: each hands it over.
 
 double vsc_rod_contact_energy(vsc_rod* rod, const vsc_world* world, const double* q, vsc_deepest_contact* deepest) {
-  double* spheres = rod->stages.backup->energy_spheres;
-  vsc_rod_sphere_points(rod, q, NULL, spheres, NULL);
-  return vsc_contact_energy(rod, world, spheres, rod->stages.broad_phase, deepest);
+  return vsc_step_contact_energy(rod, world, q, deepest);
 }
 
 void vsc_rod_visit_contacts(const vsc_rod* rod,
@@ -504,6 +483,7 @@ void vsc_rod_visit_contacts(const vsc_rod* rod,
 
 void vsc_rod_add_jacobian(vsc_rod* rod, const vsc_world* world, const double* q, double stiffness_weight,
                           double damping_weight, double* band, double* global_gradient) {
-  vsc_jacobian_add(rod, &rod->stages.scheme->jacobian, &rod->stages.contact->touch, world, q, stiffness_weight,
-                   damping_weight, band, global_gradient);
+  vsc_elastic_place(rod, rod->stages.elastic, q);
+  vsc_jacobian_add(rod, &rod->stages.scheme->jacobian, rod->stages.elastic, &rod->stages.contact->touch, world, q,
+                   stiffness_weight, damping_weight, band, global_gradient);
 }

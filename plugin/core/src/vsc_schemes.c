@@ -234,7 +234,8 @@ vsc_status vsc_implicit_substep(vsc_step_context* context, double* q, double* v,
   for (int i = 0; i < size; ++i) rhs[i] += momentum[i];
   memset(scratch->system, 0, sizeof(double) * (size_t)size * (size_t)(w + 1));
   vsc_rod_add_mass(rod, 1.0 + h * rod->def.damping, scratch->system);
-  vsc_jacobian_add(rod, &scratch->jacobian, touch, world, q0, h * h, h, scratch->system, gradient);
+  // at the samples the evaluation at q0 just placed
+  vsc_jacobian_add(rod, &scratch->jacobian, rod->stages.elastic, touch, world, q0, h * h, h, scratch->system, gradient);
   vsc_rod_pin_band(rod, scratch->system);
   for (int p = 0; p < rod->def.pinned_count; ++p)
     for (int c = 0; c < 3; ++c) rhs[3 * rod->pinned[p] + c] = gradient[3 * rod->pinned[p] + c] = 0.0;

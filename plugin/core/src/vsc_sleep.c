@@ -181,8 +181,8 @@ static void wake_by_contact(void* data, int rigid, int a, int b, double speed, d
   const unsigned char* asleep = w->flags->sphere_asleep;
   if (rigid) {
     int chatter = w->world->geoms[b].resting;  // a resting rod's capsule: its speed is no motion
-    if (asleep[a] && ((!chatter && speed > VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed) ||
-                      depth > VSC_SLEEP_WAKE_DEPTH * rod->sphere_radius[a]))
+    if (asleep[a] && vsc_sleep_contact_wakes(chatter, speed, VSC_SLEEP_GEOM_SPEED_SHARE * w->options->rest_speed,
+                                             depth, rod->sphere_radius[a]))
       wake_sphere(w, a);
     return;
   }

@@ -19,6 +19,7 @@ typedef struct estimate {
   double* y;
   double* mx;
   vsc_jacobian_scratch jacobian;
+  vsc_elastic_scratch samples;  // the samples the Jacobian reads (placed here, at q)
 } estimate;
 
 // y = K x for the frequency estimate: with `contact` = 0, the band part of the
@@ -87,17 +88,20 @@ static double largest_eigenvalue(const vsc_rod* rod, const estimate* e, double c
 void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, double* elastic, double* contact) {
   int size = 3 * rod->n;
   size_t band = (size_t)size * (size_t)(rod->jacobian_half_width + 1);
-  double* block = (double*)calloc(band + 4 * (size_t)size + VSC_JACOBIAN_SCRATCH_DOUBLES((size_t)rod->sample_count),
-                                  sizeof(double));
+  size_t N = (size_t)rod->sample_count;
+  double* block = (double*)calloc(band + 4 * (size_t)size + VSC_JACOBIAN_SCRATCH_DOUBLES(N) + 10 * N, sizeof(double));
   if (!block) {  // (a few hundred kB at most)
     *elastic = *contact = 0.0;
     return;
   }
-  estimate e = {block, block + band, block + band + size, block + band + 2 * size, block + band + 3 * size, {0}};
+  estimate e = {block, block + band, block + band + size, block + band + 2 * size, block + band + 3 * size, {0}, {0}};
   vsc_jacobian_scratch_carve(&e.jacobian, block + band + 4 * (size_t)size, rod->sample_count);
+  vsc_elastic_scratch_carve(&e.samples, block + band + 4 * (size_t)size + VSC_JACOBIAN_SCRATCH_DOUBLES(N),
+                            rod->sample_count);
+  vsc_elastic_place(rod, &e.samples, q);
   vsc_world world = {{0, 0, 0}, NULL, 0};
   double* gradient = e.gradient;
-  vsc_jacobian_add(rod, &e.jacobian, NULL, &world, q, 1.0, 0.0, e.system, gradient);
+  vsc_jacobian_add(rod, &e.jacobian, &e.samples, NULL, &world, q, 1.0, 0.0, e.system, gradient);
   for (int k = 0; k < rod->n; ++k)  // a kick that takes the global length term implicitly does not see its mode
     if (rod->is_pinned[k] || length_implicit) gradient[3 * k] = gradient[3 * k + 1] = gradient[3 * k + 2] = 0.0;
   *elastic = sqrt(largest_eigenvalue(rod, &e, 0.0));

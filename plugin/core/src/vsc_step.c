@@ -9,8 +9,8 @@
 #include <string.h>
 
 #include "viscera/vsc_grasp.h"
+#include "viscera/vsc_energy.h"
 #include "vsc_contact.h"
-#include "vsc_energy.h"
 #include "vsc_forces.h"
 #include "vsc_place.h"
 #include "vsc_friction.h"
@@ -48,25 +48,23 @@ typedef struct guard {
   int contacts;          // 1 if the rod can touch anything
 } guard;
 
-void vsc_step_backup_carve(vsc_step_backup* b, double* block, int n, int N, int spheres) {
+void vsc_step_backup_carve(vsc_step_backup* b, double* block, int n, int spheres) {
   b->q = block;
   b->v = b->q + 3 * (size_t)n;
   b->stick = b->v + 3 * (size_t)n;
   b->energy_q = b->stick + VSC_STICK_SIZE * (size_t)spheres;
   b->energy_v = b->energy_q + 3 * (size_t)n;
-  b->energy_mass_times_v = b->energy_v + 3 * (size_t)n;
-  b->energy_spheres = b->energy_mass_times_v + 3 * (size_t)n;
-  vsc_elastic_scratch_carve(&b->energy_elastic, b->energy_spheres + 3 * (size_t)spheres, N);
+  b->energy_spheres = b->energy_v + 3 * (size_t)n;
   b->energy_known = 0;
 }
 
-// Kinetic + elastic energy at (q, v) (J), on the guard's scratch; the last state
-// asked about is remembered, so one step's end is not computed again as the next one's start.
+// Kinetic + elastic energy at (q, v) (J); the last state asked about is
+// remembered, so one step's end is not computed again as the next one's start.
 static double active_energy(const vsc_rod* rod, vsc_step_backup* b, const double* q, const double* v) {
   size_t bytes = sizeof(double) * 3 * (size_t)rod->n;
   if (b->energy_known && memcmp(b->energy_q, q, bytes) == 0 && memcmp(b->energy_v, v, bytes) == 0)
     return b->energy_active;
-  b->energy_active = vsc_energy_active(rod, &b->energy_elastic, b->energy_mass_times_v, q, v);
+  b->energy_active = vsc_rod_active_energy(rod, q, v);
   memcpy(b->energy_q, q, bytes);
   memcpy(b->energy_v, v, bytes);
   b->energy_known = 1;
@@ -79,11 +77,20 @@ static double mechanical_energy(const vsc_rod* rod, const vsc_world* world, cons
   return *kinetic_elastic + vsc_rod_gravity_energy(rod, world->gravity, q);
 }
 
-// The contact penalty's potential at q (J), on the guard's scratch: the lists are read, never rebuilt.
+double vsc_step_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q,
+                               vsc_deepest_contact* deepest) {
+  vsc_contact_lists* lists = rod->stages.broad_phase;
+  int listed = 1;
+  if ((world->geom_count > 0 || rod->def.self_collision) && !vsc_contact_lists_cover(lists, rod, q, world)) {
+    double* spheres = rod->stages.backup->energy_spheres;
+    vsc_rod_sphere_points(rod, q, NULL, spheres, NULL);
+    listed = vsc_contact_lists_refresh(rod, lists, spheres, world);
+  }
+  return vsc_contact_energy(rod, world, q, lists, listed, deepest);
+}
+
 static double contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q) {
-  double* spheres = rod->stages.backup->energy_spheres;
-  vsc_rod_sphere_points(rod, q, NULL, spheres, NULL);
-  return vsc_contact_energy(rod, world, spheres, rod->stages.broad_phase, NULL);
+  return vsc_step_contact_energy(rod, world, q, NULL);
 }
 
 static guard guard_begin(const vsc_rod* rod, const vsc_world* world, const double* q, const double* v,

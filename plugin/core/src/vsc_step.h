@@ -6,10 +6,10 @@
 
 #include "viscera/vsc_friction.h"
 #include "viscera/vsc_integrate.h"
+#include "viscera/vsc_contact.h"
 #include "vsc_context.h"
-#include "vsc_elastic.h"
 
-/// The step's state, which it owns, and the energy queries' scratch.
+/// The step's state, which it owns.
 struct vsc_step_backup {
   double* q;                           ///< the step start, kept for retries (3n) (m)
   double* v;                           ///< (3n) (m/s)
@@ -18,15 +18,23 @@ struct vsc_step_backup {
   double* energy_v;                    ///< and v (3n) (m/s)
   double energy_active;                ///< kinetic + elastic energy there (J)
   int energy_known;                    ///< 1 once energy_q and energy_v hold a state
-  vsc_elastic_scratch energy_elastic;  ///< the energy queries' samples and edges (10 N)
-  double* energy_mass_times_v;         ///< their M v (3n)
-  double* energy_spheres;              ///< their sphere centres (3 per sphere) (m)
+  double* energy_spheres;              ///< where the contact energy places the spheres to rebuild the
+                                       ///< broad phase at q, when its lists do not cover q (3 per sphere) (m)
 };
 
-/// Doubles the backup's arrays hold for n points, N samples and `spheres` spheres.
-#define VSC_STEP_BACKUP_DOUBLES(n, N, spheres) (15 * (n) + 10 * (N) + (3 + VSC_STICK_SIZE) * (spheres))
+/// Doubles the backup's arrays hold for n points and `spheres` spheres.
+#define VSC_STEP_BACKUP_DOUBLES(n, spheres) (12 * (n) + (VSC_STICK_SIZE + 3) * (spheres))
 
 /// Point the backup's arrays into `block` (VSC_STEP_BACKUP_DOUBLES, caller-owned).
-void vsc_step_backup_carve(vsc_step_backup* backup, double* block, int n, int sample_count, int spheres);
+void vsc_step_backup_carve(vsc_step_backup* backup, double* block, int n, int spheres);
+
+/// The contact penalty's potential at q (J; vsc_rod_contact_energy's, the
+/// guard's): a narrow phase through the broad phase's lists where they cover
+/// q (vsc_contact_lists_cover); where they do not, the lists are rebuilt at q
+/// first, from spheres placed in the backup's scratch. The lists are a cache
+/// every evaluation revalidates, so no result depends on when they were
+/// built; nothing else is written but `deepest` (may be NULL).
+double vsc_step_contact_energy(const vsc_rod* rod, const vsc_world* world, const double* q,
+                               vsc_deepest_contact* deepest);
 
 #endif  // VISCERA_SRC_VSC_STEP_H

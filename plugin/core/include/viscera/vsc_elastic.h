@@ -7,10 +7,11 @@
 #include "viscera/vsc_rod.h"
 
 /// Elastic energy E (J) at control points q (m): springs, global stretch,
-/// curvature, clamps and mesentery tethers. Overwrites the rod's samples.
-double vsc_rod_elastic_energy(vsc_rod* rod, const double* q);
+/// curvature, clamps and mesentery tethers. Writes nothing: each sample is
+/// computed where it is needed (the same bits as the forces' pass).
+double vsc_rod_elastic_energy(const vsc_rod* rod, const double* q);
 
-/// Length of the axis (m), as the sum of the sample spacings. Overwrites the rod's samples.
-double vsc_rod_length(vsc_rod* rod, const double* q);
+/// Length of the axis (m), as the sum of the sample spacings. Writes nothing.
+double vsc_rod_length(const vsc_rod* rod, const double* q);
 
 #endif  // VISCERA_VSC_ELASTIC_H

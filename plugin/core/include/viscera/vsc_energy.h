@@ -4,14 +4,13 @@
 
 #include "viscera/vsc_rod.h"
 
-/// Kinetic + elastic energy (J), on the energy queries' own scratch: nothing an
-/// evaluation or a step reads changes.
-double vsc_rod_active_energy(vsc_rod* rod, const double* q, const double* v);
+/// Kinetic + elastic energy (J). Writes nothing.
+double vsc_rod_active_energy(const vsc_rod* rod, const double* q, const double* v);
 
 /// Gravitational potential energy (J) under `gravity` (m/s^2), zero at the origin.
 double vsc_rod_gravity_energy(const vsc_rod* rod, const double gravity[3], const double* q);
 
-/// Kinetic energy 1/2 v^T M v (J), likewise.
-double vsc_rod_kinetic_energy(vsc_rod* rod, const double* v);
+/// Kinetic energy 1/2 v^T M v (J). Writes nothing.
+double vsc_rod_kinetic_energy(const vsc_rod* rod, const double* v);
 
 #endif  // VISCERA_VSC_ENERGY_H

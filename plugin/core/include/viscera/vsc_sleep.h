@@ -110,6 +110,17 @@ void vsc_rest_wake(int k, const double* q, double* rest);
 
 typedef struct vsc_rod vsc_rod;
 
+/// 1 if a contact wakes a sleeping sphere of `radius` (m) it presses `depth`
+/// (m) deep: the other side moves faster than `waking_speed` (m/s; a geom:
+/// VSC_SLEEP_GEOM_SPEED_SHARE x rest_speed), unless the sphere's points rest
+/// (`chatter`: a resting rod's capsule, whose speed is no motion), or it
+/// presses deeper than VSC_SLEEP_WAKE_DEPTH radii. The rule for a geom, and for
+/// another intestine pressing as one.
+static inline int vsc_sleep_contact_wakes(int chatter, double speed, double waking_speed, double depth,
+                                          double radius) {
+  return (!chatter && speed > waking_speed) || depth > VSC_SLEEP_WAKE_DEPTH * radius;
+}
+
 /// 1 if every control point that collision sphere `sphere` of `rod` depends on has stayed within
 /// its rest reach for VSC_SLEEP_RESTING_SHARE of options->rest_time (its rest records `rest`,
 /// VSC_REST_SIZE per point): a resting rod there, whose chatter wakes nothing it touches.
