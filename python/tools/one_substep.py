@@ -3,10 +3,10 @@ fall's accuracy against an 8-substep reference.
 
     python python/tools/one_substep.py [--sweeps 4 8 12 16 20] [--rest 5] [--json docs/bench/one_substep.json]
 
-The leapfrog kick takes two terms implicitly (plugin/core/src/vsc_schemes.c): the global length
-term, the small bowel's stiffest elastic mode, and a pile's contact damping past gamma h = 0.5.
-With them the stability estimate gives the anatomical small bowel one substep per 1 ms step,
-where it gave two. Measured here, each with the plugin's own substeps (no `substeps` key):
+The leapfrog kick takes the global length term, the small bowel's stiffest elastic mode,
+implicitly (plugin/core/src/vsc_schemes.c), and the contact pass holds a pile's damping to
+gamma h = 0.9 (plugin/core/src/vsc_contact_load.h). With them the stability estimate gives the
+anatomical small bowel one substep per 1 ms step, where it gave two. Measured here, each with the plugin's own substeps (no `substeps` key):
   - substeps: what each shipped scene's intestines take per step (`stability()`);
   - sweep: the anatomical abdomen under bench_cavity.py's vigorous sweep (every actuator on a
     sine) for each of --sweeps seconds, each run from the scene's start: the divergence

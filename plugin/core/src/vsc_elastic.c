@@ -285,41 +285,24 @@ void vsc_elastic_place(const vsc_rod* rod, vsc_elastic_scratch* s, const double*
 // where it is needed, with the same operations in the same order as the forces' arrays,
 // so they give the same bits and write nothing (the divergence guard's pass).
 
-// Length of the spring from sample a to a + gap at q (m).
-static double spring_length(const vsc_rod* rod, const double* q, int a, int gap) {
-  double p[3], r[3];
-  vsc_rod_sample_point(rod, q, a, p);
-  vsc_rod_sample_point(rod, q, a + gap, r);
-  double dx = r[0] - p[0], dy = r[1] - p[1], dz = r[2] - p[2];
-  return sqrt(dx * dx + dy * dy + dz * dz);
+
+// The bending angle's energy at sample a from its neighbours (J), as curvature_bending's; 0 where
+// two samples coincide.
+static double angle_energy(const vsc_rod* rod, double k0, const double before[3], const double here[3],
+                           const double after[3], int a) {
+  double u[3] = {here[0] - before[0], here[1] - before[1], here[2] - before[2]};
+  double w[3] = {after[0] - here[0], after[1] - here[1], after[2] - here[2]};
+  double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+  double inverse = 1.0 / sqrt(uu * ww);
+  if (!isfinite(inverse)) return 0.0;
+  double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse;
+  return (rod->curvature_scale ? k0 * rod->curvature_scale[a] : k0) * (1.0 - c);
 }
 
-double vsc_rod_length(const vsc_rod* rod, const double* q) {
-  double total = 0.0;
-  for (int a = 0; a + 1 < rod->sample_count; ++a) total += spring_length(rod, q, a, 1);
-  return total;
-}
-
-// Curvature bending's energy at q (J), as curvature_bending's without forces.
-static double curvature_energy(const vsc_rod* rod, const double* q) {
+// The clamps' energy at q (J), as curvature_bending's, added to `energy` end by end.
+static double clamp_energy(const vsc_rod* rod, double k0, const double* q, double energy) {
   int N = rod->sample_count;
-  double k0 = rod->def.bending_rigidity / rod->rest_spacing, energy = 0.0;
-  if (!(k0 > 0.0) || N < 3) return 0.0;
-  const double* section = rod->curvature_scale;  // NULL untapered
-  double before[3], here[3], after[3];
-  vsc_rod_sample_point(rod, q, 0, here);
-  vsc_rod_sample_point(rod, q, 1, after);
-  for (int a = 1; a + 1 < N; ++a) {
-    for (int c = 0; c < 3; ++c) before[c] = here[c], here[c] = after[c];
-    vsc_rod_sample_point(rod, q, a + 1, after);
-    double u[3] = {here[0] - before[0], here[1] - before[1], here[2] - before[2]};
-    double w[3] = {after[0] - here[0], after[1] - here[1], after[2] - here[2]};
-    double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    double inverse = 1.0 / sqrt(uu * ww);
-    if (!isfinite(inverse)) continue;
-    double c = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) * inverse, k = section ? k0 * section[a] : k0;
-    energy += k * (1.0 - c);
-  }
+  const double* section = rod->curvature_scale;
   int clamped[2] = {rod->def.clamp_start, rod->def.clamp_end};
   const double* direction[2] = {rod->def.clamp_direction_start, rod->def.clamp_direction_end};
   for (int end = 0; end < 2; ++end) {
@@ -339,20 +322,53 @@ static double curvature_energy(const vsc_rod* rod, const double* q) {
   return energy;
 }
 
+// |r - p| (m), as edge_vectors computes it.
+static double distance(const double p[3], const double r[3]) {
+  double dx = r[0] - p[0], dy = r[1] - p[1], dz = r[2] - p[2];
+  return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+double vsc_rod_length(const vsc_rod* rod, const double* q) {
+  double total = 0.0, p[3], r[3];
+  vsc_rod_sample_point(rod, q, 0, r);
+  for (int a = 0; a + 1 < rod->sample_count; ++a) {
+    for (int c = 0; c < 3; ++c) p[c] = r[c];
+    vsc_rod_sample_point(rod, q, a + 1, r);
+    total += distance(p, r);
+  }
+  return total;
+}
+
 double vsc_rod_elastic_energy(const vsc_rod* rod, const double* q) {
   int N = rod->sample_count;
-  double e = 0.0, total = 0.0;
-  for (int a = 0; a + 1 < N; ++a) {  // the stretch springs, and their lengths' sum
-    double l = spring_length(rod, q, a, 1), d = l - rod->rest_spacing;
+  double k0 = rod->def.bending_rigidity / rod->rest_spacing;
+  int bending = k0 > 0.0 && N >= 3;
+  // one sweep of the samples, each placed once: the stretch springs, their lengths' sum and the
+  // bending angles, each summed in sample order as the forces' arrays are
+  double e = 0.0, total = 0.0, curvature = 0.0, ring[3][3];  // samples a - 1, a, a + 1
+  vsc_rod_sample_point(rod, q, 0, ring[1]);
+  for (int a = 0; a + 1 < N; ++a) {
+    vsc_rod_sample_point(rod, q, a + 1, ring[(a + 2) % 3]);
+    const double *here = ring[(a + 1) % 3], *after = ring[(a + 2) % 3];
+    double l = distance(here, after), d = l - rod->rest_spacing;
     total += l;
     e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
+    if (bending && a >= 1) curvature += angle_energy(rod, k0, ring[a % 3], here, after, a);
   }
+  if (bending) curvature = clamp_energy(rod, k0, q, curvature);
   double dl = total - rod->def.length;
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature_energy(rod, q);
-  if (N > 2)
+  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature;
+  if (N > 2) {  // then the bend springs, samples two apart
+    double pair[2][3];
+    vsc_rod_sample_point(rod, q, 0, pair[0]);
+    vsc_rod_sample_point(rod, q, 1, pair[1]);
     for (int a = 0; a + 2 < N; ++a) {
-      double d = spring_length(rod, q, a, 2) - 2.0 * rod->rest_spacing;
+      double next[3];
+      vsc_rod_sample_point(rod, q, a + 2, next);
+      double d = distance(pair[a % 2], next) - 2.0 * rod->rest_spacing;
       e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
+      for (int c = 0; c < 3; ++c) pair[a % 2][c] = next[c];
     }
+  }
   return e;
 }
