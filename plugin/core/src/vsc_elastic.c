@@ -281,9 +281,9 @@ void vsc_elastic_place(const vsc_rod* rod, vsc_elastic_scratch* s, const double*
   vsc_place_samples(rod, q, s->sample_x, s->sample_y, s->sample_z);
 }
 
-// The energy and the length below place no samples: each sample and spring is computed
-// where it is needed, with the same operations in the same order as the forces' arrays,
-// so they give the same bits and write nothing (the divergence guard's pass).
+// The energy and the length below place no samples: each sample is computed where it is
+// needed, each spring and angle as the forces' arrays compute it, and they write nothing
+// (the divergence guard's pass). The energy sums its terms by kind, then the kinds.
 
 
 // The bending angle's energy at sample a from its neighbours (J), as curvature_bending's; 0 where
@@ -343,32 +343,23 @@ double vsc_rod_elastic_energy(const vsc_rod* rod, const double* q) {
   int N = rod->sample_count;
   double k0 = rod->def.bending_rigidity / rod->rest_spacing;
   int bending = k0 > 0.0 && N >= 3;
-  // one sweep of the samples, each placed once: the stretch springs, their lengths' sum and the
-  // bending angles, each summed in sample order as the forces' arrays are
-  double e = 0.0, total = 0.0, curvature = 0.0, ring[3][3];  // samples a - 1, a, a + 1
+  // one sweep of the samples, each placed once, with samples a - 1, a and a + 1 at hand: the
+  // stretch spring a, a + 1 and the lengths' sum, the bending angle at a, the bend spring
+  // a - 1, a + 1; each term summed in sample order
+  double stretch = 0.0, total = 0.0, curvature = 0.0, bend = 0.0, ring[3][3];
   vsc_rod_sample_point(rod, q, 0, ring[1]);
   for (int a = 0; a + 1 < N; ++a) {
     vsc_rod_sample_point(rod, q, a + 1, ring[(a + 2) % 3]);
-    const double *here = ring[(a + 1) % 3], *after = ring[(a + 2) % 3];
+    const double *before = ring[a % 3], *here = ring[(a + 1) % 3], *after = ring[(a + 2) % 3];
     double l = distance(here, after), d = l - rod->rest_spacing;
     total += l;
-    e += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
-    if (bending && a >= 1) curvature += angle_energy(rod, k0, ring[a % 3], here, after, a);
+    stretch += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
+    if (a < 1) continue;
+    if (bending) curvature += angle_energy(rod, k0, before, here, after, a);
+    double b = distance(before, after) - 2.0 * rod->rest_spacing;
+    bend += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a - 1] : 1.0) * b * b;
   }
   if (bending) curvature = clamp_energy(rod, k0, q, curvature);
   double dl = total - rod->def.length;
-  e += 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature;
-  if (N > 2) {  // then the bend springs, samples two apart
-    double pair[2][3];
-    vsc_rod_sample_point(rod, q, 0, pair[0]);
-    vsc_rod_sample_point(rod, q, 1, pair[1]);
-    for (int a = 0; a + 2 < N; ++a) {
-      double next[3];
-      vsc_rod_sample_point(rod, q, a + 2, next);
-      double d = distance(pair[a % 2], next) - 2.0 * rod->rest_spacing;
-      e += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a] : 1.0) * d * d;
-      for (int c = 0; c < 3; ++c) pair[a % 2][c] = next[c];
-    }
-  }
-  return e;
+  return stretch + 0.5 * rod->def.global_stretch_stiffness * dl * dl + mesentery(rod, q, NULL) + curvature + bend;
 }
