@@ -339,25 +339,53 @@ double vsc_rod_length(const vsc_rod* rod, const double* q) {
   return total;
 }
 
+// Samples the energy reads at a time: placed on the stack, block by block.
+#define ENERGY_BLOCK 128
+
+// Lengths of the springs from sample a to a + gap for a < count, from samples x, y, z (m);
+// restrict parameters: the loop vectorises, as edge_vectors does, with the same bits.
+VSC_VECTOR_CLONES static void spring_lengths(const double* restrict x, const double* restrict y,
+                                             const double* restrict z, double* restrict length, int count, int gap) {
+  for (int a = 0; a < count; ++a) {
+    double dx = x[a + gap] - x[a], dy = y[a + gap] - y[a], dz = z[a + gap] - z[a];
+    length[a] = sqrt(dx * dx + dy * dy + dz * dz);
+  }
+}
+
 double vsc_rod_elastic_energy(const vsc_rod* rod, const double* q) {
   int N = rod->sample_count;
   double k0 = rod->def.bending_rigidity / rod->rest_spacing;
   int bending = k0 > 0.0 && N >= 3;
-  // one sweep of the samples, each placed once, with samples a - 1, a and a + 1 at hand: the
-  // stretch spring a, a + 1 and the lengths' sum, the bending angle at a, the bend spring
-  // a - 1, a + 1; each term summed in sample order
-  double stretch = 0.0, total = 0.0, curvature = 0.0, bend = 0.0, ring[3][3];
-  vsc_rod_sample_point(rod, q, 0, ring[1]);
-  for (int a = 0; a + 1 < N; ++a) {
-    vsc_rod_sample_point(rod, q, a + 1, ring[(a + 2) % 3]);
-    const double *before = ring[a % 3], *here = ring[(a + 1) % 3], *after = ring[(a + 2) % 3];
-    double l = distance(here, after), d = l - rod->rest_spacing;
-    total += l;
-    stretch += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
-    if (a < 1) continue;
-    if (bending) curvature += angle_energy(rod, k0, before, here, after, a);
-    double b = distance(before, after) - 2.0 * rod->rest_spacing;
-    bend += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a - 1] : 1.0) * b * b;
+  // Each term by kind, summed in sample order: for a spring start a, the stretch spring a, a + 1
+  // and the lengths' sum; the bending angle at a and the bend spring a - 1, a + 1 (a >= 1). A
+  // block of starts [first, first + count) reads samples first - 1 to first + count.
+  double stretch = 0.0, total = 0.0, curvature = 0.0, bend = 0.0;
+  double x[ENERGY_BLOCK + 2], y[ENERGY_BLOCK + 2], z[ENERGY_BLOCK + 2];  // sample first - 1 + i at i
+  double length[ENERGY_BLOCK], bend_length[ENERGY_BLOCK];
+  for (int first = 0; first + 1 < N; first += ENERGY_BLOCK) {
+    int count = N - 1 - first < ENERGY_BLOCK ? N - 1 - first : ENERGY_BLOCK;
+    if (first == 0) x[0] = y[0] = z[0] = 0.0;  // no sample before the first
+    for (int i = first > 0 ? 0 : 1; i < count + 2; ++i) {
+      double p[3];
+      vsc_rod_sample_point(rod, q, first - 1 + i, p);
+      x[i] = p[0], y[i] = p[1], z[i] = p[2];
+    }
+    spring_lengths(x + 1, y + 1, z + 1, length, count, 1);
+    spring_lengths(x, y, z, bend_length, count, 2);  // a's bend spring starts at a - 1 (unread at a = 0)
+    for (int i = 0; i < count; ++i) {
+      int a = first + i;
+      double d = length[i] - rod->rest_spacing;
+      total += length[i];
+      stretch += 0.5 * rod->stretch_spring * (rod->stretch_scale ? rod->stretch_scale[a] : 1.0) * d * d;
+      if (a < 1) continue;
+      if (bending) {
+        double before[3] = {x[i], y[i], z[i]}, here[3] = {x[i + 1], y[i + 1], z[i + 1]};
+        double after[3] = {x[i + 2], y[i + 2], z[i + 2]};
+        curvature += angle_energy(rod, k0, before, here, after, a);
+      }
+      double b = bend_length[i] - 2.0 * rod->rest_spacing;
+      bend += 0.5 * rod->bend_spring * (rod->bend_scale ? rod->bend_scale[a - 1] : 1.0) * b * b;
+    }
   }
   if (bending) curvature = clamp_energy(rod, k0, q, curvature);
   double dl = total - rod->def.length;
