@@ -30,6 +30,19 @@ def grasps():
     return reference("grasp_lift", [3, 4], pixels=True)
 
 
+def test_minari_dataset_at_a_relative_path(tmp_path, monkeypatch, grasps):
+    """`--out data/x`, relative to the working folder, as the README writes it: Minari joins a
+    relative datasets root to itself, so a second episode's write once failed looking for
+    data/x/.../data/x/.../main_data.hdf5."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "data").mkdir()
+    summary = datasets.write("grasp_lift", pathlib.Path("data") / "grasps", "minari", seeds=[3, 4], pixels=False,
+                             size=SIZE, workers=1)
+    assert summary["episodes"] == 2
+    dataset = datasets.load(pathlib.Path("data") / "grasps", "minari", "grasp_lift", "scripted")
+    assert dataset.total_episodes == 2 and dataset.total_steps == sum(e.steps for e in grasps)
+
+
 def test_minari_dataset_reloads_bit_for_bit(tmp_path, grasps):
     out = tmp_path / "minari"
     # two worker processes: the dataset must not depend on where an episode ran

@@ -63,7 +63,9 @@ class MinariWriter:
         import minari
 
         previous = os.environ.get("MINARI_DATASETS_PATH")
-        os.environ["MINARI_DATASETS_PATH"] = str(self.root)  # where Minari's writer puts the dataset
+        # where Minari's writer puts the dataset: absolute, as Minari joins a relative one to itself
+        # (its second episode's size was looked up under data/x/.../data/x/..., and the write failed)
+        os.environ["MINARI_DATASETS_PATH"] = str(self.root.resolve())
         try:
             if self.dataset is None:
                 with warnings.catch_warnings():  # a dataset made on a user's machine has no permalink or e-mail
