@@ -30,8 +30,9 @@ interrupted write never leaves a half file under the name) holding a `meta` entr
 
 ARCHITECTURE, version 1: `kind` "mlp", an MLP over the concatenation of its `inputs`, in the
 order listed, any of:
-- "state": the state entries, `state_normalisation` {"mean": ARRAY, "scale": ARRAY} applied as
-  (state - mean) / scale when given;
+- "state": the state entries, `state_normalisation` {"mean": ARRAY, "scale": ARRAY, "clip": C
+  (optional)} applied as (state - mean) / scale when given, then clipped to [-C, C] (an entry far
+  outside what the network was trained on reaches it no farther than C);
 - "clock": the policy's clock, the steps it has taken this episode / `clock_steps` (0 at the first);
 - "previous_action": its previous command (in the action's normalisation; zeros before the first,
   `previous_action_start` "zeros");
@@ -46,7 +47,9 @@ order listed, any of:
 the last gives `output.chunk` x action size values. `output`: `target` "action" (the network
 gives the command) or "change" (the change from the previous command, except at the action
 indices `absolute`, where it gives the command, as a grasper's jaw jumps), multiplied first by
-`scale` (ARRAY (action size,), optional); `chunk` K >= 1 future commands (row-major: K rows of
+`scale` (ARRAY (action size,), optional); `held` (optional) {"indices": [...], "values": [...]}:
+actions the policy holds at a fixed command (in the action's normalisation) whatever the network
+gives, such as an actuator no demonstration moved; `chunk` K >= 1 future commands (row-major: K rows of
 the action size), each made a command as above from the command before the chunk and clipped to
 the action's range. With K > 1, ACT's temporal ensembling (Zhao et al. 2023): the command at a
 step is the average of every chunk's prediction for that step, made at most K - 1 steps earlier,
@@ -292,15 +295,17 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     if ("pixels" in inputs) != (pixels is not None):
         r.fail("observation.pixels is given but the inputs do not read pixels" if pixels is not None else
                "architecture.inputs has 'pixels' but observation.pixels is null")
-    mean = scale = None
+    mean = scale = state_clip = None
     if a.get("state_normalisation") is not None:
         if "state" not in inputs:
             r.fail("architecture.state_normalisation without 'state' in the inputs")
-        norm = r.object(a["state_normalisation"], "architecture.state_normalisation", ("mean", "scale"))
+        norm = r.object(a["state_normalisation"], "architecture.state_normalisation", ("mean", "scale"), ("clip",))
         mean = r.array(norm["mean"], "state_normalisation.mean", (state_size,))
         scale = r.array(norm["scale"], "state_normalisation.scale", (state_size,))
         if not np.all(scale > 0):
             r.fail("state_normalisation.scale must be positive")
+        if norm.get("clip") is not None:
+            state_clip = r.number(norm["clip"], "state_normalisation.clip", positive=True)
     clock_steps = None
     if "clock" in inputs:
         if a.get("clock_steps") is None:
@@ -341,7 +346,8 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     elif a.get("pixel_encoder") is not None:
         r.fail("architecture.pixel_encoder without 'pixels' in the inputs")
 
-    o = r.object(a["output"], "architecture.output", ("target",), ("scale", "absolute", "chunk", "temporal_ensemble_m"))
+    o = r.object(a["output"], "architecture.output", ("target",),
+                 ("scale", "absolute", "chunk", "temporal_ensemble_m", "held"))
     target = r.choice(o["target"], "output.target", TARGETS)
     output_scale = r.array(o["scale"], "output.scale", (size,)) if o.get("scale") is not None else None
     absolute = o.get("absolute", [])
@@ -352,6 +358,17 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
         r.fail("output.absolute is for the target 'change'")
     mask = np.zeros(size, dtype=bool)
     mask[absolute] = True
+    held_mask, held_values = np.zeros(size, dtype=bool), np.zeros(size)
+    if o.get("held") is not None:
+        held = r.object(o["held"], "output.held", ("indices", "values"))
+        indices, values = held["indices"], held["values"]
+        if (not isinstance(indices, list) or not isinstance(values, list) or len(indices) != len(values) or
+                any(isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < size for i in indices) or
+                len(set(indices)) != len(indices)):
+            r.fail(f"output.held must give distinct action indices (0 to {size - 1}) and as many values")
+        for i, value in zip(indices, values):
+            held_mask[i] = True
+            held_values[i] = r.number(value, f"output.held.values[{i}]")
     chunk = r.integer(o.get("chunk", 1), "output.chunk")
     m = o.get("temporal_ensemble_m")
     if chunk > 1:
@@ -390,9 +407,10 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
             r.fail(f"array {name!r} holds NaN or infinite values")
     return {"task": task, "scene": scene, "control_timestep_s": control_timestep_s, "entries": entries,
             "state_size": state_size, "pixels": pixels, "size": size, "names": names, "low": low, "high": high,
-            "normalisation": normalisation, "inputs": inputs, "mean": mean, "scale": scale,
+            "normalisation": normalisation, "inputs": inputs, "mean": mean, "scale": scale, "state_clip": state_clip,
             "clock_steps": clock_steps, "pixel_scale": pixel_scale, "encoder": encoder, "dense": dense,
-            "target": target, "output_scale": output_scale, "absolute": mask, "chunk": chunk, "m": m,
+            "target": target, "output_scale": output_scale, "absolute": mask, "held": held_mask,
+            "held_values": held_values, "chunk": chunk, "m": m,
             "ensemble_weights": weights}
 
 
@@ -553,7 +571,11 @@ class LearnedPolicy:
                 x = np.asarray(state, dtype=np.float64)
                 if x.shape != (net["state_size"],):
                     raise ValueError(f"state of shape {x.shape}, the policy reads {net['state_size']} values")
-                parts.append(x if net["mean"] is None else (x - net["mean"]) / net["scale"])
+                if net["mean"] is not None:
+                    x = (x - net["mean"]) / net["scale"]
+                    if net["state_clip"] is not None:
+                        x = np.clip(x, -net["state_clip"], net["state_clip"])
+                parts.append(x)
             elif name == "clock":
                 parts.append(np.array([clock], dtype=np.float64))
             elif name == "previous_action":
@@ -582,6 +604,7 @@ class LearnedPolicy:
             raw = raw * net["output_scale"]
         if net["target"] == "change":
             raw = np.where(net["absolute"], raw, self._previous + raw)
+        raw = np.where(net["held"], net["held_values"], raw)
         predicted = np.clip(raw, self._low, self._high)
         self._chunks.append((self._steps, predicted))
         if net["chunk"] == 1:

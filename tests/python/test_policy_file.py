@@ -236,6 +236,10 @@ def bad_files(tmp_path) -> dict:
                  "output.scale": weights["output.scale"][:4],
                  "layer0.weight": weights["layer0.weight"][:, :-1]}): "gives actions of 4 values, grasp_lift takes 5",
         changed("range.npz", setter("action", "high", value=[2.0] * 5)): "another action normalisation",
+        changed("clip.npz", setter("architecture", "state_normalisation", "clip", value=-1.0)):
+            "state_normalisation.clip",
+        changed("held.npz", setter("architecture", "output", "held", value={"indices": [3, 3], "values": [0.0, 0.1]})):
+            "output.held must give distinct action indices (0 to 4) and as many values",
     }
 
 
@@ -406,6 +410,32 @@ def test_temporal_ensembling_is_the_hand_computation(tmp_path):
         output = np.array([1.0, 2.0]) * (t / 10) + np.array([0.5, -0.25])
         previous = np.clip(np.where([False, True], output, previous + output), -100, 100)
         assert change.act(None).tobytes() == previous.tobytes()
+
+
+def test_clipped_inputs_and_held_actions(tmp_path):
+    """state_normalisation.clip bounds each normalised entry: a state far outside the training's
+    acts as one at the bound; output.held commands its actuators at the value given, whatever the
+    network says (bc.py: an actuator no demonstration moved)."""
+    plain = random_policy(tmp_path / "plain.npz", hidden=32)
+    meta = copy.deepcopy(plain.meta)
+    meta["architecture"]["state_normalisation"]["clip"] = 5.0
+    meta["architecture"]["output"]["held"] = {"indices": [3], "values": [0.25]}
+    clipped = policy_file.save(tmp_path / "clipped.npz", weights=plain.weights, architecture=meta["architecture"],
+                               training=meta["training"], **fields())
+    state = inputs(plain, 1)[0][0]
+    mean, scale = plain.weights["state.mean"], plain.weights["state.scale"]
+    far = state.copy()
+    far[:20] = mean[:20] + 1e3 * scale[:20]           # a thousand scales out ...
+    bound = state.copy()
+    bound[:20] = mean[:20] + 5.0 * scale[:20]         # ... reads as five
+    results = []
+    for policy, given in ((clipped, far), (clipped, bound), (plain, far), (plain, bound)):
+        policy.reset()
+        results.append(policy.act(given))
+    assert np.array_equal(results[0], results[1])
+    assert not np.array_equal(results[2], results[3])  # unclipped, the two differ
+    assert np.all(episode(clipped)[:, 3] == 0.25)
+    assert len(set(episode(plain)[:, 3])) > 1
 
 
 SIMD_CHILD = """

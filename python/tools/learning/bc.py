@@ -94,8 +94,8 @@ class Method:
     dagger_rounds: int = 0
     dagger_episodes: int = 20          # the learner's episodes per round
     dagger_updates: int = 3_000        # Adam steps after each round, on every frame so far
-    beta: float = 0.5                  # the script's share of control in DAgger's rounds ...
-    beta_decay: float = 1.0            # ... multiplied by this each round
+    beta: float = 0.5                  # the script's share of control in DAgger's first round, falling
+                                       # linearly to 0 at the last (the learner alone, the oracle labelling)
     segment: int = 25                  # control steps between draws of who acts
     shift: int = 0                     # pixels: random shifts of up to this many pixels (0: none)
     previous: bool = True              # the previous command among the inputs
@@ -267,10 +267,17 @@ class Learner:
         self.generator = torch.Generator().manual_seed(seed)
         self.inputs = np.arange(frames["state"].shape[1]) if kind == "state" else proprioception_slices(frames["names"])
         state = frames["state"][:, self.inputs].astype(np.float64)
-        # float32 as the policy file keeps them, so that training and the file normalise alike
+        # float32 as the policy file keeps them, so that training and the file normalise alike; each
+        # entry's scale is its spread in the demonstrations, but never below its unit's floor
+        # (common.observation_floors), and the normalised entries are clipped (common.INPUT_CLIP)
+        floors = common.observation_floors([frames["names"][i] for i in self.inputs], frames["action_names"])
         self.mean = state.mean(axis=0).astype(np.float32)
-        self.scale = (state.std(axis=0) + 1e-6).astype(np.float32)
+        self.scale = np.maximum(state.std(axis=0), floors).astype(np.float32)
         self.action_names = frames["action_names"]
+        # an actuator no demonstration moved (grasp_lift's roll) is held where they held it, not learned
+        labels = frames["action"].astype(np.float64)
+        self.held = np.flatnonzero(labels.max(axis=0) - labels.min(axis=0) < 1e-3)
+        self.held_values = labels[0, self.held] if len(self.held) else np.zeros(0)
         self.jaws = np.array([name.endswith("_jaw") for name in self.action_names])
         self.time_limit_steps = frames["time_limit_steps"]
         # the target's scale: the spread, per actuator, of the change from the previous command
@@ -299,7 +306,8 @@ class Learner:
         method = self.method
         self.model.train()
         wall, cpu = time.perf_counter(), time.process_time()
-        state = torch.as_tensor((frames["state"][:, self.inputs] - self.mean) / self.scale, dtype=torch.float32)
+        state = torch.as_tensor(np.clip((frames["state"][:, self.inputs] - self.mean) / self.scale,
+                                        -common.INPUT_CLIP, common.INPUT_CLIP), dtype=torch.float32)
         memory = torch.as_tensor(np.concatenate([frames["clock"][:, None]] +
                                                 ([frames["previous_action"]] if method.previous else []), axis=1),
                                  dtype=torch.float32)
@@ -333,7 +341,8 @@ class Learner:
         weights = {"state_mean": self.mean, "state_scale": self.scale, "output_scale": self.change_scale}
         inputs = ["state", "clock"] + (["previous_action"] if self.method.previous else [])
         architecture = {"kind": "mlp", "inputs": inputs,
-                        "state_normalisation": {"mean": "state_mean", "scale": "state_scale"},
+                        "state_normalisation": {"mean": "state_mean", "scale": "state_scale",
+                                                "clip": common.INPUT_CLIP},
                         "clock_steps": self.time_limit_steps}
         if self.method.previous:
             architecture["previous_action_start"] = "zeros"
@@ -362,6 +371,8 @@ class Learner:
             output["absolute"] = [int(i) for i in np.flatnonzero(self.jaws)]
         if self.method.chunk > 1:
             output["temporal_ensemble_m"] = float(ensemble_m)
+        if len(self.held):
+            output["held"] = {"indices": [int(i) for i in self.held], "values": [float(v) for v in self.held_values]}
         architecture["output"] = output
         return architecture, weights
 
@@ -429,7 +440,8 @@ class Cloned:
         """The chunk (chunk, actions) of commands predicted at this step, clipped to [-1, 1]."""
         learner = self.learner
         state = observation["state"] if isinstance(observation, dict) else observation
-        state = (np.asarray(state, dtype=np.float64)[learner.inputs] - self.mean) / self.scale
+        state = np.clip((np.asarray(state, dtype=np.float64)[learner.inputs] - self.mean) / self.scale,
+                        -common.INPUT_CLIP, common.INPUT_CLIP)
         memory = np.concatenate([[self.step / learner.time_limit_steps]] +
                                 ([self.previous] if learner.method.previous else []))
         image = None
@@ -442,6 +454,7 @@ class Cloned:
         raw = raw[0].numpy().astype(np.float64).reshape(learner.method.chunk, -1) * self.change_scale
         if learner.method.target == "change":
             raw = np.where(learner.jaws, raw, self.previous + raw)
+        raw[:, learner.held] = learner.held_values
         return np.clip(raw, -1.0, 1.0)
 
     def __call__(self, observation) -> np.ndarray:
@@ -564,9 +577,28 @@ class RGBOnly:
         return getattr(self._camera, name)
 
 
-def _evaluate_file(path: str, seeds) -> list[dict]:
+# the action noise a committed policy must bear: per step, normal, this share of each actuator's range
+ACTION_NOISE = 0.02
+
+
+class Noisy:
+    """A dm_env policy whose every command is moved by normal noise of `share` of each actuator's
+    range (drawn from `seed`), then clipped to the range: the executed command, which the policy
+    does not see (it remembers its own)."""
+
+    def __init__(self, policy, low, high, share: float, seed: int):
+        self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
+        self.sigma, self.rng = share * (self.high - self.low), np.random.default_rng(seed)
+
+    def __call__(self, time_step) -> np.ndarray:
+        command = self.policy(time_step)
+        return np.clip(command + self.rng.normal(0.0, self.sigma), self.low, self.high)
+
+
+def _evaluate_file(path: str, seeds, noise: float = 0.0) -> list[dict]:
     """The policy file's episodes on `seeds`, the file loaded and acting on dm_env time steps as
-    `python -m viscera play` runs it."""
+    `python -m viscera play` runs it; with `noise`, each command moved by that share of its
+    actuator's range (Noisy), the noise drawn from the episode's seed."""
     from viscera import policy_file
 
     policy = policy_file.load(path)
@@ -574,21 +606,24 @@ def _evaluate_file(path: str, seeds) -> list[dict]:
     policy.check_env(env.dm_env)
     if policy.pixels is not None:
         env.dm_env.task.camera = RGBOnly(env.dm_env.task.camera)
+    spec = env.dm_env.action_spec()
     try:
-        return [common.policy_episode(env, policy, int(seed)) for seed in seeds]
+        return [common.policy_episode(env, Noisy(policy, spec.minimum, spec.maximum, noise, int(seed)) if noise else
+                                      policy, int(seed)) for seed in seeds]
     finally:
         env.close()
 
 
-def evaluate(path: pathlib.Path, seeds, workers: int = 1) -> dict:
-    """common.summarise of the policy file's episodes on `seeds`, in `workers` processes."""
+def evaluate(path: pathlib.Path, seeds, workers: int = 1, noise: float = 0.0) -> dict:
+    """common.summarise of the policy file's episodes on `seeds`, in `workers` processes (with
+    `noise`: _evaluate_file's)."""
     seeds = [int(s) for s in seeds]
     if workers == 1:
-        return common.summarise(_evaluate_file(str(path), seeds))
+        return common.summarise(_evaluate_file(str(path), seeds, noise))
     parts = [list(part) for part in np.array_split(np.asarray(seeds), workers) if len(part)]
     context = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(len(parts), mp_context=context) as pool:
-        results = list(pool.map(_evaluate_file, [str(path)] * len(parts), parts))
+        results = list(pool.map(_evaluate_file, [str(path)] * len(parts), parts, [noise] * len(parts)))
     return common.summarise([episode for part in results for episode in part])
 
 
@@ -618,7 +653,8 @@ def run(task: str, kind: str, root: pathlib.Path, demos: int, method: Method, ev
     with tempfile.TemporaryDirectory() as scratch:
         for round_ in range(method.dagger_rounds + 1):
             if round_:
-                beta = method.beta * method.beta_decay ** (round_ - 1)
+                rounds = method.dagger_rounds
+                beta = method.beta * (rounds - round_) / (rounds - 1) if rounds > 1 else 0.0
                 seeds = dagger_seeds[(round_ - 1) * method.dagger_episodes:round_ * method.dagger_episodes]
                 clock.lap()
                 episodes = dagger_round(learner.policy(), task, kind, seeds, beta, method.segment,
@@ -663,6 +699,13 @@ def run(task: str, kind: str, root: pathlib.Path, demos: int, method: Method, ev
                     f"({lap['wall_s']:.0f} s)")
                 if last:
                     result_record = result
+                    clock.lap()
+                    noisy = evaluate(path, seeds, workers, noise=ACTION_NOISE)
+                    lap = clock.lap()
+                    result_record["action_noise"] = {"share_of_range": ACTION_NOISE, "wall_s": lap["wall_s"],
+                                                     **{k: noisy[k] for k in ("episodes", "success_rate",
+                                                                              "success_interval_95")}}
+                    log(f"{task} {kind}: with {ACTION_NOISE:.0%} action noise: success {noisy['success_rate']:.2f}")
     train_wall = sum(t["wall_s"] for t in stages["train"])
     train_cpu = sum(t["cpu_s"] for t in stages["train"])
     result_record.update(
@@ -760,8 +803,8 @@ def main(argv=None) -> int:
                         help="scripted episodes with pixels for the pixel policies, seeds 0 to N - 1 (default 100)")
     parser.add_argument("--data", type=pathlib.Path, default=pathlib.Path("data") / "demos",
                         help="where the demonstrations' datasets are (written there when missing)")
-    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2050),
-                        help="the unseen seeds A:B the policies are evaluated on (default 2000:2050)")
+    parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2100),
+                        help="the unseen seeds A:B the policies are evaluated on (default 2000:2100)")
     parser.add_argument("--curve-seeds", type=common.seed_range, default=None,
                         help="the seeds A:B each earlier DAgger round is evaluated on, for the learning curve "
                              "(default: the evaluation's)")
@@ -807,7 +850,7 @@ def main(argv=None) -> int:
         for kind in args.observations:
             if kind == "pixels" and task not in args.pixel_tasks:
                 continue
-            method = dataclasses.replace(METHOD[kind], dagger_rounds=DAGGER_ROUNDS[task], **overrides)
+            method = dataclasses.replace(METHOD[kind], **{"dagger_rounds": DAGGER_ROUNDS[task], **overrides})
             result = run(task, kind, args.data / kind, demos[kind][task], method, list(args.eval_seeds), curve_seeds,
                          args.policies / f"{task}_{kind}.npz", args.workers, log=lambda text: print(text, flush=True))
             record["results"].setdefault(task, {})[kind] = result

@@ -77,10 +77,22 @@ class Clock:
         return lap
 
 
+def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> list[float]:
+    """The 95 % Wilson score interval of a success rate (Wilson 1927): [low, high]."""
+    if trials == 0:
+        return [0.0, 1.0]
+    p = successes / trials
+    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
+    half = z * np.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    return [float(max(0.0, centre - half)), float(min(1.0, centre + half))]
+
+
 def summarise(episodes: list[dict]) -> dict:
-    """Success rate and the medians of the scores over episodes (the successful ones' time)."""
+    """Success rate with its 95 % interval, and the medians of the scores over episodes (the
+    successful ones' time)."""
     succeeded = [e for e in episodes if e["success"]]
     return {"episodes": len(episodes), "success_rate": len(succeeded) / len(episodes),
+            "success_interval_95": wilson_interval(len(succeeded), len(episodes)),
             "succeeded_seeds": [e["seed"] for e in succeeded],
             "mean_return": float(np.mean([e["return"] for e in episodes])),
             "median_time_to_success_s": float(np.median([e["time_s"] for e in succeeded])) if succeeded else None,
@@ -147,3 +159,38 @@ def curve_figure(record: dict, path: pathlib.Path) -> None:
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
+
+
+# -- what a network can read
+
+# The smallest scale each observation entry is normalised by, whatever the demonstrations' spread
+# (issue: an entry the demonstrator never moves, say a roll joint spreading 2e-4 rad, divided by
+# that spread puts a 2 degree roll 150 spreads from anything seen). By the entry's unit:
+MILLIMETRE, DEGREE, NEWTON, NEWTON_METRE, SHARE, GRAVITY = 1e-3, np.pi / 180.0, 0.1, 0.01, 0.05, 0.1
+# per observation key: a floor, or "joints" (each actuator's own unit: m for a depth, rad otherwise)
+# or "wrench" (6 per tool: force N, then torque N m)
+FLOORS = {"tool_joints": "joints", "tool_command": "joints", "tool_forces": "wrench", "grasper_holding": SHARE,
+          "intestine_axis": MILLIMETRE, "gravity": GRAVITY, "band": MILLIMETRE, "held_abscissa": MILLIMETRE,
+          "band_abscissa": MILLIMETRE, "target": MILLIMETRE, "target_coverage": SHARE, "grasper_tip": MILLIMETRE,
+          "start_mark": MILLIMETRE, "intestine_length": MILLIMETRE, "advance": MILLIMETRE,
+          "counted_abscissa": MILLIMETRE}
+# normalised entries are clipped to this many scales from the demonstrations' mean
+INPUT_CLIP = 5.0
+
+
+def observation_floors(names: list[str], action_names: list[str]) -> np.ndarray:
+    """Each flat state entry's floor (its unit's: 1 mm, 1 degree, 0.1 N, 0.01 N m, 0.05 of a share,
+    0.1 m/s^2), from its name "key[i]" and the actuators' names; an unknown key is an error."""
+    floors = np.empty(len(names))
+    for j, name in enumerate(names):
+        key, index = name.split("[")[0], int(name.split("[")[1].rstrip("]"))
+        if key not in FLOORS:
+            raise KeyError(f"observation entry {name!r}: no unit known for {key!r} (common.FLOORS)")
+        kind = FLOORS[key]
+        if kind == "joints":
+            floors[j] = MILLIMETRE if action_names[index].endswith("_depth") else DEGREE
+        elif kind == "wrench":
+            floors[j] = NEWTON if index % 6 < 3 else NEWTON_METRE
+        else:
+            floors[j] = kind
+    return floors
