@@ -504,13 +504,19 @@ def bc_results() -> str:
                 continue
             time = f"{r['median_time_to_success_s']:.1f}" if r["median_time_to_success_s"] is not None else "-"
             rounds = f", DAgger x {r['dagger_rounds']}" if r["dagger_rounds"] else ""
+            interval = r.get("success_interval_95")
+            success = f"**{_percent(r['success_rate'])}**" + (
+                f" ({_percent(interval[0])} to {_percent(interval[1])})" if interval else "")
+            noise = r.get("action_noise")
+            noisy = f"{_percent(noise['success_rate'])}" if noise else "-"
             rows.append([task, kind, f"chunks of {r['chunk']}{rounds}",
                          f"{r['demonstrations']} of {r['demonstrations_collected']}", f"{r['env_steps']:,}",
-                         f"**{_percent(r['success_rate'])}**", time, f"{r['median_path_length_m']:.2f}",
+                         success, noisy, time, f"{r['median_path_length_m']:.2f}",
                          f"{r['median_peak_force_n']:.1f}", f"{(r['train_cpu_s'] + r['dagger_cpu_s']) / 60:.0f}",
                          f"{r['policy_bytes'] / 1024:.0f}"])
     header = ["task", "observations", "method", "demonstrations cloned", "environment steps",
-              f"success, seeds {first}-{last}", "median time to success (s)", "median path length (m)",
+              f"success, seeds {first}-{last} (95 % interval)", "with 2 % action noise",
+              "median time to success (s)", "median path length (m)",
               "median peak tool force (N)", "training and DAgger (CPU min)", "policy file (kB)"]
     return _rows(header, rows)
 
@@ -547,13 +553,14 @@ def bc_reevaluations() -> str:
             for k, change in enumerate(changes):
                 # after a change: what the next change found before it, or the entry's results for the last
                 before, after = change["before"], changes[k + 1]["before"] if k + 1 < len(changes) else r
-                rows.append([task, kind, change["why"], change["date"], _percent(before["success_rate"]),
-                             f"**{_percent(after['success_rate'])}**",
+                seeds = [before.get("eval_seeds", [2000, 2049]), after.get("eval_seeds", [2000, 2049])]
+                rows.append([task, kind, change["why"], change["date"],
+                             f"{_percent(before['success_rate'])} ({seeds[0][0]}-{seeds[0][1]})",
+                             f"**{_percent(after['success_rate'])}** ({seeds[1][0]}-{seeds[1][1]})",
                              f"{len(set(before['succeeded_seeds']) & set(after['succeeded_seeds']))} of "
                              f"{len(before['succeeded_seeds'])}"])
-    first, last = record["eval_seeds"]
-    return _rows(["task", "observations", "the change", "re-evaluated", f"success before, seeds {first}-{last}",
-                  "after", "seeds that still succeed"], rows)
+    return _rows(["task", "observations", "the change", "re-evaluated", "success before (seeds)", "after (seeds)",
+                  "seeds that still succeed"], rows)
 
 
 def bc_variants() -> str:
