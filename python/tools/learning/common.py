@@ -6,12 +6,16 @@ from __future__ import annotations
 import importlib.metadata
 import pathlib
 import resource
+import sys
 import time
 
 import numpy as np
 
 from viscera import assess
 from viscera.cli import seed_range  # noqa: F401  (argparse type of the tools' seed options)
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))  # python/tools
+from task_rates import wilson_interval  # noqa: E402  (the 95 % interval the oracles' rates give too)
 
 
 def episode(env, act, seed: int) -> dict:
@@ -75,16 +79,6 @@ class Clock:
         lap = {"wall_s": now[0] - self._last[0], "cpu_s": now[1] - self._last[1]}
         self._last = now
         return lap
-
-
-def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> list[float]:
-    """The 95 % Wilson score interval of a success rate (Wilson 1927): [low, high]."""
-    if trials == 0:
-        return [0.0, 1.0]
-    p = successes / trials
-    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
-    half = z * np.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
-    return [float(max(0.0, centre - half)), float(min(1.0, centre + half))]
 
 
 def summarise(episodes: list[dict]) -> dict:
