@@ -518,6 +518,18 @@ static int self_valid(const vsc_rod* rod, vsc_contact_lists* l, const double* x)
   return 1;
 }
 
+// The most any surface point of `geom` moved since its build `pose` (m): |dp| + R ||dR||_F + the
+// sum of the size changes for a bounded geom; for an unbounded one (a plane), 0 if it did not
+// move at all, else infinity (its far parts may have swept anywhere).
+static double geom_shift(const vsc_geom* geom, const double* pose) {
+  double moved = 0.0, turned = 0.0, grown = 0.0;
+  for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
+  for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
+  for (int a = 0; a < 3; ++a) grown += fabs(geom->size[a] - pose[12 + a]);
+  if (geom->bound_radius > 0.0) return sqrt(moved) + geom->bound_radius * sqrt(turned) + grown;
+  return moved != 0.0 || turned != 0.0 || grown != 0.0 ? INFINITY : 0.0;
+}
+
 // Whole geom builds kept while a few geoms move: past this share of the geoms
 // stale at once, a whole build costs no more than rebuilding them alone.
 #define STALE_GEOMS_SHARE 0.25
@@ -532,25 +544,14 @@ static int geoms_valid(const vsc_rod* rod, vsc_contact_lists* l, const double* x
   if (!sphere_moves(rod, x, l->geom_sphere_xyz, l->geom_moved)) return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
   int stale = 0;
+  double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
   for (int g = 0; g < world->geom_count; ++g) {
     const vsc_geom* geom = &world->geoms[g];
-    double* shift = l->geom_pose + VSC_GEOM_POSE_SIZE * (size_t)l->built_geom_capacity;
-    const double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
-    double moved = 0.0, turned = 0.0, grown = 0.0;
-    for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
-    for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
-    for (int a = 0; a < 3; ++a) grown += fabs(geom->size[a] - pose[12 + a]);
-    if (geom->bound_radius > 0.0) {
-      // no surface point moved more than |dp| + R ||dR||_F + the sum of the size changes
-      shift[g] = sqrt(moved) + geom->bound_radius * sqrt(turned) + grown;
-      l->geom_stale[g] = !(shift[g] <= half);  // NaN: stale
-      stale += l->geom_stale[g];
-    } else if (moved != 0.0 || turned != 0.0 || grown != 0.0) {
+    shift[g] = geom_shift(geom, l->geom_pose + VSC_GEOM_POSE_SIZE * g);
+    if (!(geom->bound_radius > 0.0) && shift[g] > 0.0)
       return 0;  // an unbounded geom (plane) moved: its far parts may have swept anywhere
-    } else {
-      shift[g] = 0.0;
-      l->geom_stale[g] = 0;
-    }
+    l->geom_stale[g] = !(shift[g] <= half);  // NaN: stale
+    stale += l->geom_stale[g];
   }
   if (stale == 0) return 1;
   // alone only in the direct build's range (a grid pass's order is sorted after, its grid reused)
@@ -598,16 +599,7 @@ int vsc_contact_lists_cover(const vsc_contact_lists* l, const vsc_rod* rod, cons
       !spheres_within(rod, q, l->geom_sphere_xyz))
     return 0;
   double half = 0.5 * VSC_CONTACT_MARGIN * rod->radius_max;
-  for (int g = 0; g < world->geom_count; ++g) {  // as geoms_valid: no geom past half the margin
-    const vsc_geom* geom = &world->geoms[g];
-    const double* pose = l->geom_pose + VSC_GEOM_POSE_SIZE * g;
-    double moved = 0.0, turned = 0.0, grown = 0.0;
-    for (int a = 0; a < 3; ++a) moved += (geom->position[a] - pose[a]) * (geom->position[a] - pose[a]);
-    for (int a = 0; a < 9; ++a) turned += (geom->rotation[a] - pose[3 + a]) * (geom->rotation[a] - pose[3 + a]);
-    for (int a = 0; a < 3; ++a) grown += fabs(geom->size[a] - pose[12 + a]);
-    if (geom->bound_radius > 0.0 ? !(sqrt(moved) + geom->bound_radius * sqrt(turned) + grown <= half)
-                                 : (moved != 0.0 || turned != 0.0 || grown != 0.0))
-      return 0;
-  }
+  for (int g = 0; g < world->geom_count; ++g)  // as geoms_valid: no geom past half the margin
+    if (!(geom_shift(&world->geoms[g], l->geom_pose + VSC_GEOM_POSE_SIZE * g) <= half)) return 0;
   return 1;
 }

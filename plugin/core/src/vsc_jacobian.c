@@ -194,11 +194,6 @@ static void project_samples(const vsc_rod* rod, vsc_jacobian_scratch* j, double 
   }
 }
 
-void vsc_jacobian_scratch_carve(vsc_jacobian_scratch* j, double* block, int N) {
-  (void)N;
-  j->sample_hessian = block;
-}
-
 // dl/dp at sample a (3): +e/l of the spring before it, -e/l of the one after (none past the ends,
 // nor for a collapsed spring), summed in that order from zero.
 static void sample_length_gradient(const vsc_elastic_scratch* p, int N, int a, double g[3]) {

@@ -16,9 +16,6 @@ typedef struct vsc_jacobian_scratch {
 /// Doubles a Jacobian's scratch holds for N samples.
 #define VSC_JACOBIAN_SCRATCH_DOUBLES(N) (27 * (N))
 
-/// Point a scratch's arrays into `block` (VSC_JACOBIAN_SCRATCH_DOUBLES(N), caller-owned).
-void vsc_jacobian_scratch_carve(vsc_jacobian_scratch* scratch, double* block, int sample_count);
-
 /// vsc_rod_add_jacobian on `scratch`, at the samples `placed` holds (the
 /// elastic pass's, placed at q), with rigid contacts from `touch` (NULL: none).
 void vsc_jacobian_add(const vsc_rod* rod, vsc_jacobian_scratch* scratch, const vsc_elastic_scratch* placed,

@@ -359,7 +359,7 @@ static int allocate_arrays(vsc_rod* rod, const vsc_rod_def* def) {
   stage->scheme->stage = (double*)AT(ARRAY_STAGE);
   stage->scheme->system = (double*)AT(ARRAY_SYSTEM);
   stage->scheme->factor_row = (double*)AT(ARRAY_FACTOR_ROW);
-  vsc_jacobian_scratch_carve(&stage->scheme->jacobian, (double*)AT(ARRAY_JACOBIAN), N);
+  stage->scheme->jacobian.sample_hessian = (double*)AT(ARRAY_JACOBIAN);
   stage->backup = &states->backup;
   vsc_step_backup_carve(stage->backup, (double*)AT(ARRAY_BACKUP), n, spheres);
   if (vsc_rod_def_radius_at(def, 1.0) != def->radius) {

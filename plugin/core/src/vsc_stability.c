@@ -95,7 +95,7 @@ void vsc_rod_frequencies(vsc_rod* rod, const double* q, int length_implicit, dou
     return;
   }
   estimate e = {block, block + band, block + band + size, block + band + 2 * size, block + band + 3 * size, {0}, {0}};
-  vsc_jacobian_scratch_carve(&e.jacobian, block + band + 4 * (size_t)size, rod->sample_count);
+  e.jacobian.sample_hessian = block + band + 4 * (size_t)size;
   vsc_elastic_scratch_carve(&e.samples, block + band + 4 * (size_t)size + VSC_JACOBIAN_SCRATCH_DOUBLES(N),
                             rod->sample_count);
   vsc_elastic_place(rod, &e.samples, q);
