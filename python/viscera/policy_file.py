@@ -57,6 +57,13 @@ weighted exp(-m * age) with m = `temporal_ensemble_m`, age 0 for the chunk made 
 own choice, the oldest weighted most with its k = 0.01, is m = -0.01 here). ARRAY is the name of
 an array in the file; every array must be used.
 
+`residual` (optional): residual policy learning (Silver et al. 2018; Johannink et al., ICRA 2019),
+a correction network over the command above: {"inputs": any of "state" (normalised and clipped as
+the network reads it), "clock" and "base_action" (the command above), "layers": [dense layers,
+as above, the last giving the action size], "scale": S}. The command becomes the command above
+plus S times the correction clipped to [-1, 1], the held actions held, clipped to the action's
+range; it is the previous command the next step reads.
+
 Inference is NumPy in float64 and bit-identical on any x86-64 CPU whatever SIMD features NumPy
 finds there (tested with them disabled): a layer is an elementwise multiply then `.sum(axis=-1)`
 over a C-contiguous last axis (NumPy's pairwise sum, whose order does not depend on the CPU), not
@@ -93,6 +100,7 @@ TARGETS = ("action", "change")
 POOLINGS = ("flatten", "spatial_softmax")  # a pixel encoder's last step
 NORMALISATIONS = ("range", "none")
 PREVIOUS_STARTS = ("zeros",)
+RESIDUAL_INPUTS = ("state", "clock", "base_action")  # what a residual correction reads
 DIGEST_DIGITS = 12  # the SHA-256 prefix in a policy's label
 META_KEYS = {"format", "version", "task", "scene", "control_timestep_s", "observation", "action", "architecture",
              "training", "created", "viscera", "mujoco"}
@@ -280,7 +288,7 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     normalisation = r.choice(action["normalisation"], "action.normalisation", NORMALISATIONS)
 
     a = r.object(meta["architecture"], "architecture", ("kind", "inputs", "layers", "output"),
-                 ("state_normalisation", "clock_steps", "previous_action_start", "pixel_encoder"))
+                 ("state_normalisation", "clock_steps", "previous_action_start", "pixel_encoder", "residual"))
     r.choice(a["kind"], "architecture.kind", KINDS)
     inputs = a["inputs"]
     if not isinstance(inputs, list) or not inputs:
@@ -385,20 +393,12 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
         r.fail(f"output.temporal_ensemble_m {m!r} gives weights that are not finite and positive")
 
     width = sum({"pixels": features, "state": state_size, "clock": 1, "previous_action": size}[k] for k in inputs)
-    layers = a["layers"]
-    if not isinstance(layers, list) or not layers:
-        r.fail("architecture.layers must be a non-empty list")
-    dense = []
-    for i, layer in enumerate(layers):
-        where = f"layers[{i}]"
-        r.object(layer, where, ("kind", "weight", "bias", "activation"))
-        r.choice(layer["kind"], f"{where}.kind", ("dense",))
-        weight = r.array(layer["weight"], f"{where}.weight", (None, width))
-        bias = r.array(layer["bias"], f"{where}.bias", (weight.shape[0],))
-        dense.append(_Dense(weight, bias, r.choice(layer["activation"], f"{where}.activation", ACTIVATIONS) == "relu"))
-        width = weight.shape[0]
+    dense, width = _dense_layers(r, a["layers"], "architecture.layers", width)
     if width != chunk * size:
         r.fail(f"the last layer gives {width} values; a chunk of {chunk} actions of {size} takes {chunk * size}")
+    residual = None
+    if a.get("residual") is not None:
+        residual = _check_residual(r, a["residual"], inputs, state_size, size)
     unused = sorted(set(arrays) - r.used)
     if unused:
         r.fail(f"holds array {unused[0]!r}, which its architecture does not use")
@@ -411,7 +411,42 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
             "clock_steps": clock_steps, "pixel_scale": pixel_scale, "encoder": encoder, "dense": dense,
             "target": target, "output_scale": output_scale, "absolute": mask, "held": held_mask,
             "held_values": held_values, "chunk": chunk, "m": m,
-            "ensemble_weights": weights}
+            "ensemble_weights": weights, "residual": residual}
+
+
+def _dense_layers(r: _Reader, layers, where: str, width: int) -> tuple[list, int]:
+    """`layers` (a list of dense layers over `width` inputs, at `where`) and the width they give."""
+    if not isinstance(layers, list) or not layers:
+        r.fail(f"{where} must be a non-empty list")
+    dense = []
+    for i, layer in enumerate(layers):
+        at = f"{where}[{i}]"
+        r.object(layer, at, ("kind", "weight", "bias", "activation"))
+        r.choice(layer["kind"], f"{at}.kind", ("dense",))
+        weight = r.array(layer["weight"], f"{at}.weight", (None, width))
+        bias = r.array(layer["bias"], f"{at}.bias", (weight.shape[0],))
+        dense.append(_Dense(weight, bias, r.choice(layer["activation"], f"{at}.activation", ACTIVATIONS) == "relu"))
+        width = weight.shape[0]
+    return dense, width
+
+
+def _check_residual(r: _Reader, value, inputs: list, state_size: int, size: int) -> dict:
+    """architecture.residual: a correction network added to the command (residual policy learning)."""
+    e = r.object(value, "architecture.residual", ("inputs", "layers", "scale"))
+    read = e["inputs"]
+    if not isinstance(read, list) or not read or len(set(map(str, read))) != len(read):
+        r.fail("residual.inputs must be a non-empty list without repeats")
+    for name in read:
+        r.choice(name, "residual.inputs entry", RESIDUAL_INPUTS)
+    if "state" in read and "state" not in inputs:
+        r.fail("residual.inputs has 'state' but the policy's inputs do not")
+    if "clock" in read and "clock" not in inputs:
+        r.fail("residual.inputs has 'clock' but the policy's inputs do not (no clock_steps)")
+    width = sum({"state": state_size, "clock": 1, "base_action": size}[k] for k in read)
+    dense, width = _dense_layers(r, e["layers"], "residual.layers", width)
+    if width != size:
+        r.fail(f"residual.layers give {width} values; the action has {size}")
+    return {"inputs": read, "dense": dense, "scale": r.number(e["scale"], "residual.scale", positive=True)}
 
 
 class _SpatialSoftmax:
@@ -561,6 +596,52 @@ class LearnedPolicy:
         return np.concatenate([np.asarray(observation[name], dtype=np.float64).ravel()
                                for name, _ in self.state_entries])
 
+    def normalised_state(self, state: np.ndarray) -> np.ndarray:
+        """The state entries as the network reads them: normalised and clipped as the file says."""
+        net = self._net
+        x = np.asarray(state, dtype=np.float64)
+        if x.shape != (net["state_size"],):
+            raise ValueError(f"state of shape {x.shape}, the policy reads {net['state_size']} values")
+        if net["mean"] is not None:
+            x = (x - net["mean"]) / net["scale"]
+            if net["state_clip"] is not None:
+                x = np.clip(x, -net["state_clip"], net["state_clip"])
+        return x
+
+    @property
+    def clock(self) -> float:
+        """The clock the next act() reads: steps taken this episode / clock_steps (0 without a clock)."""
+        return self._steps / self._net["clock_steps"] if self._net["clock_steps"] else 0.0
+
+    def correction_inputs(self, state: np.ndarray | None, clock: float, base: np.ndarray,
+                          inputs=None) -> np.ndarray:
+        """What a residual correction reads, in the order of `inputs` (default: the file's
+        residual's, else RESIDUAL_INPUTS): the state as the network reads it, the clock and the
+        base command `base`. A residual learner trains on exactly these (rl_grasp_lift.py)."""
+        residual = self._net["residual"]
+        inputs = inputs if inputs is not None else residual["inputs"] if residual is not None else RESIDUAL_INPUTS
+        parts = {"state": lambda: self.normalised_state(state), "clock": lambda: np.array([clock], dtype=np.float64),
+                 "base_action": lambda: np.asarray(base, dtype=np.float64)}
+        return np.concatenate([parts[name]() for name in inputs])
+
+    def corrected(self, base: np.ndarray, correction: np.ndarray, scale: float) -> np.ndarray:
+        """The base command plus `scale` times `correction` clipped to [-1, 1], the held actions
+        held, clipped to the action's range: what a residual policy commands."""
+        net = self._net
+        command = np.asarray(base, dtype=np.float64) + scale * np.clip(correction, -1.0, 1.0)
+        return np.clip(np.where(net["held"], net["held_values"], command), self._low, self._high)
+
+    def correction(self, state: np.ndarray | None, clock: float, base: np.ndarray) -> np.ndarray:
+        """The residual network's raw correction to the base command `base` (corrected() clips
+        it): a pure function of its inputs. Zeros for a policy without a residual."""
+        residual = self._net["residual"]
+        if residual is None:
+            return np.zeros(self.action_size)
+        x = self.correction_inputs(state, clock, base)
+        for layer in residual["dense"]:
+            x = layer(x)
+        return x
+
     def network(self, state: np.ndarray | None, clock: float, previous: np.ndarray,
                 pixels: np.ndarray | None = None) -> np.ndarray:
         """The network's raw output, (chunk, action size) float64: a pure function of its inputs."""
@@ -568,14 +649,7 @@ class LearnedPolicy:
         parts = []
         for name in net["inputs"]:
             if name == "state":
-                x = np.asarray(state, dtype=np.float64)
-                if x.shape != (net["state_size"],):
-                    raise ValueError(f"state of shape {x.shape}, the policy reads {net['state_size']} values")
-                if net["mean"] is not None:
-                    x = (x - net["mean"]) / net["scale"]
-                    if net["state_clip"] is not None:
-                        x = np.clip(x, -net["state_clip"], net["state_clip"])
-                parts.append(x)
+                parts.append(self.normalised_state(state))
             elif name == "clock":
                 parts.append(np.array([clock], dtype=np.float64))
             elif name == "previous_action":
@@ -598,8 +672,8 @@ class LearnedPolicy:
         """The next command in the action's normalisation (clipped to its range), from the state
         entries (state_of) and the RGB; advances the clock and remembers the command."""
         net = self._net
-        raw = self.network(state, self._steps / net["clock_steps"] if net["clock_steps"] else 0.0, self._previous,
-                           pixels)
+        clock = self.clock
+        raw = self.network(state, clock, self._previous, pixels)
         if net["output_scale"] is not None:
             raw = raw * net["output_scale"]
         if net["target"] == "change":
@@ -617,6 +691,8 @@ class LearnedPolicy:
                 command = command + weight * chunk[age]
                 total += weight
             command = np.clip(command / total, self._low, self._high)
+        if net["residual"] is not None:
+            command = self.corrected(command, self.correction(state, clock, command), net["residual"]["scale"])
         self._previous = command
         self._steps += 1
         return command.copy()

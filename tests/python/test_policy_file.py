@@ -238,6 +238,10 @@ def bad_files(tmp_path) -> dict:
         changed("range.npz", setter("action", "high", value=[2.0] * 5)): "another action normalisation",
         changed("clip.npz", setter("architecture", "state_normalisation", "clip", value=-1.0)):
             "state_normalisation.clip",
+        changed("residual.npz", setter("architecture", "residual", value={
+            "inputs": ["base_action"], "scale": 0.1,
+            "layers": [{"kind": "dense", "weight": "layer1.weight", "bias": "layer1.bias", "activation": "none"}]})):
+            "residual.layers[0].weight: array 'layer1.weight' is (5, 16), it must be (any, 5)",
         changed("held.npz", setter("architecture", "output", "held", value={"indices": [3, 3], "values": [0.0, 0.1]})):
             "output.held must give distinct action indices (0 to 4) and as many values",
     }
@@ -436,6 +440,52 @@ def test_clipped_inputs_and_held_actions(tmp_path):
     assert not np.array_equal(results[2], results[3])  # unclipped, the two differ
     assert np.all(episode(clipped)[:, 3] == 0.25)
     assert len(set(episode(plain)[:, 3])) > 1
+
+
+def with_residual(tmp_path, base, scale=0.1, hidden=8, seed=3):
+    """`base` with a random residual correction over the state, the clock and the base's command."""
+    rng = np.random.default_rng(seed)
+    meta = copy.deepcopy(base.meta)
+    state = sum(n for _, n in base.state_entries)
+    width = state + 1 + base.action_size
+    weights = {**base.weights, "res0.weight": rng.normal(size=(hidden, width)) / np.sqrt(width),
+               "res0.bias": rng.normal(size=hidden) * 0.1,
+               "res1.weight": rng.normal(size=(base.action_size, hidden)) * 2.0 / np.sqrt(hidden),
+               "res1.bias": rng.normal(size=base.action_size) * 0.1}
+    meta["architecture"]["residual"] = {"inputs": ["state", "clock", "base_action"], "scale": scale, "layers": [
+        {"kind": "dense", "weight": "res0.weight", "bias": "res0.bias", "activation": "relu"},
+        {"kind": "dense", "weight": "res1.weight", "bias": "res1.bias", "activation": "none"}]}
+    return policy_file.save(tmp_path / "residual.npz", weights=weights, architecture=meta["architecture"],
+                            training=meta["training"], **fields())
+
+
+def test_a_residual_is_the_base_plus_its_scaled_correction(tmp_path):
+    """architecture.residual (residual policy learning, rl_grasp_lift.py's): each command is the
+    base network's, from its own memory of the commands executed, plus the scale times the
+    correction network's output clipped to [-1, 1]; a held actuator stays held. Computed here by
+    hand with matrix products, step by step beside the base alone."""
+    plain = random_policy(tmp_path / "plain.npz", hidden=32, chunk=3)
+    meta = copy.deepcopy(plain.meta)
+    meta["architecture"]["output"]["held"] = {"indices": [3], "values": [0.25]}
+    base = policy_file.save(tmp_path / "base.npz", weights=plain.weights, architecture=meta["architecture"],
+                            training=meta["training"], **fields())
+    residual = with_residual(tmp_path, base, scale=0.1)
+    w = residual.weights
+    mean, spread = w["state.mean"], w["state.scale"]
+    base.reset()
+    residual.reset()
+    clipped = 0
+    for step, (state, _) in enumerate(inputs(base, 8)):
+        command = base.act(state)
+        x = np.concatenate([(state - mean) / spread, [step / 750], command])
+        correction = w["res1.weight"] @ np.maximum(w["res0.weight"] @ x + w["res0.bias"], 0.0) + w["res1.bias"]
+        clipped += int(np.any(np.abs(correction) > 1.0))
+        expected = np.clip(command + 0.1 * np.clip(correction, -1.0, 1.0), -1.0, 1.0)
+        expected[3] = 0.25
+        np.testing.assert_allclose(residual.act(state), expected, rtol=0, atol=1e-12)
+        base.executed(expected)  # the base's next input is what was done
+    assert clipped > 0  # the correction's clip was exercised
+    assert not np.allclose(episode(residual), episode(base))
 
 
 SIMD_CHILD = """

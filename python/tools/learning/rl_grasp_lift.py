@@ -55,15 +55,26 @@ import common  # noqa: E402  (python/tools/learning/common.py)
 OUT = pathlib.Path("docs") / "learning" / "rl_grasp_lift.json"
 BASE = pathlib.Path("docs") / "learning" / "policies" / "grasp_lift_state.npz"
 TASK = "grasp_lift"
+POLICY = pathlib.Path("docs") / "learning" / "policies" / "grasp_lift_rl.npz"
+GAMMA = 0.995  # PPO's discount, and the shaping's gamma
 
 
-def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1):
-    """`env` (a TaskEnv) whose observation also holds the clock (control steps taken over the
-    episode's) and a memory: without a base, the previous action (zeros at the start), as bc.py's
-    policies have. With a base policy file: residual policy learning (Silver et al. 2018,
-    Johannink et al., ICRA 2019), the action is the base's command plus `scale` times the
-    learner's correction in [-1, 1], the memory is the base's command, and the base takes the
-    executed command as its previous one."""
+def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1, gamma: float | None = None):
+    """`env` (a TaskEnv) made the learner's environment.
+
+    - Without a base: its observation also holds the clock (control steps taken over the
+      episode's) and the previous action (zeros at the start), as bc.py's policies have.
+    - With a base policy file: residual policy learning (Silver et al. 2018, Johannink et al.,
+      ICRA 2019). The observation is what the policy file's residual reads (LearnedPolicy.
+      correction_inputs: the state as the base's network reads it, normalised with its floors and
+      clipped, the base's clock and the base's command), so the trained correction is written into
+      the file as it is. The action is the base's command plus `scale` times the correction
+      (LearnedPolicy.corrected: the base's held actuators stay held), and the base takes the
+      executed command as its previous one.
+    - With `gamma`: the task's dense reward, Phi(s') - Phi(s) - c (+ the bonus on success), made
+      the potential-based form for a learner discounting by gamma (Ng, Harada and Russell 1999):
+      gamma Phi(s') - Phi(s) - c, by adding (gamma - 1) Phi(s') on every step that does not end the
+      episode (the last step's Phi(s') is the episode's, paid whole)."""
     import gymnasium
 
     from viscera import policy_file
@@ -72,10 +83,13 @@ def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1):
         def __init__(self, env):
             super().__init__(env)
             self.base = None if base_path is None else policy_file.load(base_path)
+            self.limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
+            actions = env.action_space.shape[0]
             if self.base is not None:
                 self.base.check_env(env.dm_env)
-            self.limit_steps = int(round(env.dm_env.time_limit_s / env.dm_env.control_timestep()))
-            size = env.observation_space.shape[0] + 1 + env.action_space.shape[0]
+                size = sum(n for _, n in self.base.state_entries) + 1 + actions
+            else:
+                size = env.observation_space.shape[0] + 1 + actions
             self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
 
         @property
@@ -83,9 +97,12 @@ def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1):
             return self.env.dm_env
 
         def _observed(self, observation):
-            if self.base is not None:
-                self.memory = self.base.act(self.base.state_of(self.env.time_step.observation))
-            return np.concatenate([observation, [self.steps / self.limit_steps], self.memory])
+            if self.base is None:
+                return np.concatenate([observation, [self.steps / self.limit_steps], self.memory])
+            state = self.base.state_of(self.env.time_step.observation)
+            clock = self.base.clock
+            self.memory = self.base.act(state)  # the base's command
+            return self.base.correction_inputs(state, clock, self.memory)
 
         def reset(self, **kwargs):
             observation, info = self.env.reset(**kwargs)
@@ -97,16 +114,44 @@ def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1):
         def step(self, action):
             action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
             if self.base is not None:
-                action = np.clip(self.memory + scale * action, -1.0, 1.0)
+                action = self.base.corrected(self.memory, action, scale)
             observation, reward, terminated, truncated, info = self.env.step(action)
             self.steps += 1
             if self.base is not None:
                 self.base.executed(action)
             else:
                 self.memory = action
+            if gamma is not None and not (terminated or truncated):
+                reward += (gamma - 1.0) * self.env.dm_env.task.last_potential
             return self._observed(observation), reward, terminated, truncated, info
 
     return WithMemory(env)
+
+
+def export(model, base_path: pathlib.Path, scale: float, path: pathlib.Path, training: dict):
+    """The residual PPO's deterministic policy written as a policy file: the base's file with an
+    `architecture.residual`, the actor's layers (ReLU) as its dense layers. Returns it loaded."""
+    import copy
+
+    import torch
+
+    from viscera import policy_file
+
+    base = policy_file.load(base_path)
+    linears = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    linears.append(model.policy.action_net)
+    weights = dict(base.weights)
+    layers = []
+    for i, linear in enumerate(linears):
+        weights[f"residual{i}.weight"] = linear.weight.detach().double().numpy()
+        weights[f"residual{i}.bias"] = linear.bias.detach().double().numpy()
+        layers.append({"kind": "dense", "weight": f"residual{i}.weight", "bias": f"residual{i}.bias",
+                       "activation": "relu" if i < len(linears) - 1 else "none"})
+    architecture = copy.deepcopy(base.meta["architecture"])
+    architecture["residual"] = {"inputs": list(policy_file.RESIDUAL_INPUTS), "layers": layers, "scale": scale}
+    fields = base.fields
+    fields = {k: v for k, v in fields.items() if k not in ("training", "architecture")}
+    return policy_file.save(path, weights=weights, architecture=architecture, training=training, **fields)
 
 
 def demonstration_inputs(frames: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -185,6 +230,23 @@ def references(seeds: list[int]) -> dict:
     return found
 
 
+def earlier_attempts(path: pathlib.Path) -> list[dict]:
+    """The runs a record at `path` holds (its attempts, then its own run), kept in the new record's
+    `attempts` (drawn thin and dashed in the figure)."""
+    if not path.exists():
+        return []
+    old = json.loads(path.read_text())
+    start = old["start"]
+    hyper = old["hyperparameters"]
+    described = {"residual": f"residual on the cloned policy, corrections up to {start.get('residual_scale')}",
+                 "demos": f"actor pretrained on {start.get('demonstrations')} demonstrations",
+                 "scratch": "from scratch (PPO alone)"}[start["kind"]]
+    described += f", rate {hyper['learning_rate']:g}, {hyper['n_epochs']} epochs (viscera {old['versions'].get('viscera', '?')})"
+    own = {"start": described, "hyperparameters": hyper, "start_details": start, "curve": old["curve"],
+           "stopped": old.get("stopped", "at its budget"), "final": old.get("final"), "final_seeds": old.get("final_seeds")}
+    return old.get("attempts", []) + [own]
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python python/tools/learning/rl_grasp_lift.py", description=__doc__.split("\n\n")[0])
     parser.add_argument("--budget-core-hours", type=float, default=1.0,
@@ -212,8 +274,10 @@ def main(argv=None) -> int:
     parser.add_argument("--eval-every", type=int, default=100_000, help="environment steps between evaluations")
     parser.add_argument("--eval-seeds", type=common.seed_range, default=range(2000, 2020),
                         help="the learning curve's unseen seeds A:B (default 2000:2020)")
-    parser.add_argument("--final-seeds", type=common.seed_range, default=range(2000, 2050),
-                        help="the trained policy's unseen seeds A:B (default 2000:2050)")
+    parser.add_argument("--final-seeds", type=common.seed_range, default=range(2000, 2100),
+                        help="the trained policy's unseen seeds A:B (default 2000:2100, bc.py's)")
+    parser.add_argument("--policy-out", type=pathlib.Path, default=POLICY,
+                        help=f"with --start residual: the trained policy's file (default {POLICY})")
     parser.add_argument("--out", type=pathlib.Path, default=OUT, help=f"the results JSON (default {OUT})")
     args = parser.parse_args(argv)
 
@@ -267,19 +331,30 @@ def main(argv=None) -> int:
                      base_success_rate=None if base_entry is None else base_entry["success_rate"])
         spent["cpu_s"] += start["base_training_cpu_s"] or 0.0  # the base's training is in the budget
 
-    def make_env():
+    def make_env(shaped: bool = True):
+        """The learner's environment; unshaped, the task's own returns (the curve's)."""
+        gamma = GAMMA if shaped else None
         if args.start == "residual":
-            return with_memory(TaskEnv(TASK), args.base, args.residual_scale)
-        return with_memory(TaskEnv(TASK))
+            return with_memory(TaskEnv(TASK), args.base, args.residual_scale, gamma)
+        return with_memory(TaskEnv(TASK), gamma=gamma)
+
+    def unshaped():
+        return make_env(shaped=False)
 
     # seeded at the first reset (from PPO's seed): environment i from task seed i
-    venv = VecNormalize(VecMonitor(DummyVecEnv([make_env] * args.envs)), norm_obs=True, norm_reward=False, clip_obs=10.0)
+    # a residual's inputs are normalised already, as its policy file normalises them
+    venv = VecNormalize(VecMonitor(DummyVecEnv([make_env] * args.envs)), norm_obs=args.start != "residual",
+                        norm_reward=False, clip_obs=10.0)
     started = args.start != "scratch"
     rate = args.learning_rate if args.learning_rate is not None else 3e-5 if started else 3e-4
     hyper = dict(n_steps=1024, batch_size=256, n_epochs=args.epochs, learning_rate=rate,
-                 gamma=0.995, gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, target_kl=0.01 if started else None,
+                 gamma=GAMMA, gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, target_kl=0.01 if started else None,
                  policy_kwargs=dict(net_arch=[256, 256], log_std_init=-1.5 if started else -0.5))
-    model = PPO("MlpPolicy", venv, seed=0, verbose=0, device="cpu", **hyper)
+    policy_kwargs = dict(hyper["policy_kwargs"])
+    if args.start == "residual":  # ReLU, which a policy file's dense layers have
+        policy_kwargs["activation_fn"] = torch.nn.ReLU
+        hyper["policy_kwargs"] = dict(hyper["policy_kwargs"], activation_fn="relu")
+    model = PPO("MlpPolicy", venv, seed=0, verbose=0, device="cpu", **dict(hyper, policy_kwargs=policy_kwargs))
     if args.start == "demos":
         start.update(pretrain(model, venv, frames, args.pretrain_updates))
     if args.start == "residual":
@@ -292,13 +367,16 @@ def main(argv=None) -> int:
     algorithm = {"residual": "PPO (stable-baselines3), residual on the cloned policy",
                  "demos": "PPO (stable-baselines3), actor pretrained on demonstrations", "scratch": "PPO (stable-baselines3)"}
     record = {"task": TASK, "algorithm": algorithm[args.start],
-              "hyperparameters": hyper, "start": start, "reward": "dense (the task's contract)",
+              "hyperparameters": hyper, "start": start,
+              "reward": "the task's dense reward, made potential-based for gamma: + (gamma - 1) Phi(s') on every step "
+                        "that does not end the episode",
               "envs": args.envs, "budget_core_hours": args.budget_core_hours,
               "train_seeds": f"environment i starts on task seed i (0 to {args.envs - 1}), then draws from its RandomState",
               "eval_seeds": [min(args.eval_seeds), max(args.eval_seeds)],
               "final_seeds": [min(args.final_seeds), max(args.final_seeds)], "curve": curve,
               "versions": common.versions("stable_baselines3", "torch")}
 
+    record["attempts"] = earlier_attempts(args.out)
     references_clock = common.Clock()
     record["references_on_eval_seeds"] = references(list(args.eval_seeds))
     record["references_note"] = ("the scripted policy and uniform random actions on the curve's seeds, the same "
@@ -314,7 +392,7 @@ def main(argv=None) -> int:
     def point(steps: int) -> None:
         """The curve's point at `steps` of PPO (plus the demonstrations' steps), its evaluation counted in the budget."""
         used = cpu_s()
-        result = evaluate(model, venv, make_env, list(args.eval_seeds))
+        result = evaluate(model, venv, unshaped, list(args.eval_seeds))
         curve.append({"env_steps": int(steps) + demo_steps, "ppo_env_steps": int(steps), "core_hours": used / 3600.0,
                       "success_rate": result["success_rate"], "mean_return": result["mean_return"]})
         print(f"{steps:>9} steps  {used / 3600:.3f} core-h  success {result['success_rate']:.2f}"
@@ -359,7 +437,22 @@ def main(argv=None) -> int:
     record["train_wall_s"] = time.perf_counter() - wall_start
     model.save(args.out.with_suffix(".zip"))
     venv.save(str(args.out.with_suffix(".normalizer.pkl")))
-    final = evaluate(model, venv, make_env, list(args.final_seeds))
+    if args.start == "residual":  # the policy file, evaluated as `play --policy` runs it
+        trained = export(model, args.base, args.residual_scale, args.policy_out, training={
+            "by": "python/tools/learning/rl_grasp_lift.py", "algorithm": record["algorithm"], "base": str(args.base),
+            "base_sha256": base.sha256, "residual_scale": args.residual_scale, "ppo_env_steps": int(model.num_timesteps),
+            "core_hours": record["train_core_hours"], "train_seeds": record["train_seeds"],
+            "versions": record["versions"]})
+        record["policy_file"] = str(args.policy_out)
+        evaluation_clock = common.Clock()
+        final = bc.evaluate(pathlib.Path(trained.path), args.final_seeds)
+        final["eval_cpu_s"] = evaluation_clock.lap()["cpu_s"]
+        if final["success_rate"] >= 0.1:
+            noisy = bc.evaluate(pathlib.Path(trained.path), args.final_seeds, noise=bc.ACTION_NOISE)
+            final["action_noise"] = {"share_of_range": bc.ACTION_NOISE, "success_rate": noisy["success_rate"],
+                                     "success_interval_95": noisy["success_interval_95"]}
+    else:
+        final = evaluate(model, venv, unshaped, list(args.final_seeds))
     record["final"] = final
     write()
     common.curve_figure(record, args.out.with_suffix(".png"))

@@ -733,6 +733,13 @@ class BowelTask(base.Task):
             return self.contract.failure(before, self._potential, self._steps)
         return self.contract.step(before, self._potential)
 
+    @property
+    def last_potential(self) -> float | None:
+        """Phi of the last state after_step measured, in [0, 1] (the goal's after a success); None
+        before an episode, 0 with a sparse reward. A learner that discounts by gamma shapes with it
+        in the potential-based form, gamma Phi(s') - Phi(s) (rl_grasp_lift.py)."""
+        return self._potential
+
     def get_reward(self, physics: Physics) -> float:
         """The last control step's reward (after_step computes it, once a step: viscera.tasks.reward)."""
         return 0.0 if self._reward is None else self._reward
