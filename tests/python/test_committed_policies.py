@@ -1,5 +1,6 @@
-"""The committed learned policies (docs/learning/policies, written by python/tools/learning/bc.py)
-reproduce what docs/learning/bc.json says of them, through the command line a user runs:
+"""The committed learned policies (docs/learning/policies, written by python/tools/learning/bc.py,
+and the residual RL policy by rl_grasp_lift.py) reproduce what docs/learning/bc.json and
+docs/learning/rl_grasp_lift.json say of them, through the command line a user runs:
 `python -m viscera play TASK --seed S --policy FILE` exits 0 on a seed the evaluation counted a
 success and 1 on one it counted a failure. The short version of the evaluation: one seed of each
 verdict per policy (no training here)."""
@@ -19,6 +20,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 RECORD = json.loads((ROOT / "docs" / "learning" / "bc.json").read_text())
 ENTRIES = [(task, kind, entry) for task, kinds in sorted(RECORD["results"].items())
            for kind, entry in sorted(kinds.items())]
+RL = json.loads((ROOT / "docs" / "learning" / "rl_grasp_lift.json").read_text())
+if "policy_file" in RL:  # the residual RL policy: its final evaluation is the same kind of entry
+    ENTRIES.append((RL["task"], "rl", dict(RL["final"], policy_file=RL["policy_file"],
+                                           eval_seeds=RL["final_seeds"])))
 # a failed episode runs to the time limit: checked where that is short (grasp_lift's 15 s)
 FAILURE_CHECKED = ("grasp_lift",)
 
@@ -38,12 +43,16 @@ def test_every_task_has_a_committed_state_policy():
 def test_the_committed_policy_is_the_file_the_record_describes(task, kind, entry):
     path = ROOT / entry["policy_file"]
     assert path == ROOT / "docs" / "learning" / "policies" / f"{task}_{kind}.npz"
-    assert path.stat().st_size == entry["policy_bytes"]
     policy = policy_file.load(path)
     assert policy.task == task and (policy.pixels is not None) == (kind == "pixels")
     first, last = entry["eval_seeds"]
     assert (first, last) == tuple(RECORD["eval_seeds"]) and entry["episodes"] == last - first + 1
     assert entry["success_rate"] == pytest.approx(len(entry["succeeded_seeds"]) / entry["episodes"])
+    if kind == "rl":  # a residual on a cloned policy (held in the file), its demonstrations before these seeds
+        assert policy.meta["architecture"]["residual"]["scale"] == RL["start"]["residual_scale"]
+        assert policy.meta["training"]["base_sha256"] == RL["start"]["base_sha256"]
+        return
+    assert path.stat().st_size == entry["policy_bytes"]
     assert entry["demonstration_seeds"][1] < first  # no demonstration on an evaluation seed
 
 

@@ -178,7 +178,8 @@ def test_a_bad_camera_mode_or_optics_is_refused():
 
 def test_a_dataset_from_a_steered_recording_sees_what_the_camera_saw():
     """dataset --policy recordings --pixels: the images of a recording with a camera track are the
-    steered camera's (the first, before any tick, the aimed one's); the states are the same."""
+    steered camera's (the first, before any tick, the aimed one's); the states are the same but
+    for the camera's pose, observed with the pixels (its last 6 entries), which follows the steering."""
     from viscera.datasets import episodes
     from viscera.gymnasium_env import TaskEnv
     made = recording.record("grasp_lift", seed=2, policy="random", time_limit_s=0.1)
@@ -194,7 +195,10 @@ def test_a_dataset_from_a_steered_recording_sees_what_the_camera_saw():
     turned = Laparoscope.of(env.dm_env.physics, 30.0).initial + np.array([0.0, 0.0, 0.0, 45.0])
     steered = episodes.run(env, made.seed, made.policy, made.actions, camera=np.tile(turned, (made.steps, 1)),
                            optics_deg=30.0)
-    np.testing.assert_array_equal(plain.state, steered.state)
+    assert plain.state_names[-6:] == [f"camera_pose[{i}]" for i in range(6)]
+    np.testing.assert_array_equal(plain.state[:, :-6], steered.state[:, :-6])
+    np.testing.assert_array_equal(plain.state[0, -6:], steered.state[0, -6:])
+    assert np.dot(plain.state[-1, -3:], steered.state[-1, -3:]) < np.cos(np.radians(5.0))  # it looks elsewhere
     pixels = [k for k in plain.images if "pixels" in k or "rgb" in k][0]
     np.testing.assert_array_equal(plain.images[pixels][0], steered.images[pixels][0])
     assert np.abs(plain.images[pixels][-1].astype(int) - steered.images[pixels][-1].astype(int)).mean() > 5.0

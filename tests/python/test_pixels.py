@@ -250,13 +250,19 @@ def test_gymnasium_dict_spaces_and_pixels_only():
     assert observation["pixels"].shape == (24, 32, 3)
     env.close()
     # flatten=True with pixels: the state entries in one float64 vector beside the images, the
-    # vector equal to the state-only environment's observation of the same episode
+    # vector the state-only environment's observation of the same episode followed by the camera's
+    # pose (where it is and its unit line of sight, observed with its pixels)
     flat = TaskEnv("grasp_lift", flatten=True, pixels=True, width=32, height=24)
     state_only = TaskEnv("grasp_lift")
     both, _ = flat.reset(seed=0)
     alone, _ = state_only.reset(seed=0)
     assert list(both) == ["state", "pixels", "depth", "segmentation"] and flat.observation_space.contains(both)
-    assert np.array_equal(both["state"], alone) and np.array_equal(both["pixels"], observation["pixels"])
+    assert np.array_equal(both["state"][:-6], alone) and np.array_equal(both["pixels"], observation["pixels"])
+    pose = both["state"][-6:]
+    assert np.array_equal(pose, observation["camera_pose"]) and abs(np.dot(pose[3:], pose[3:]) - 1.0) < 1e-12
+    band = observation["band"].reshape(5, 3).mean(axis=0)  # the scope is aimed at the band at the start
+    sight = (band - pose[:3]) / np.linalg.norm(band - pose[:3])
+    assert np.dot(sight, pose[3:]) > np.cos(np.radians(10.0))
     flat.close()
     state_only.close()
     with pytest.raises(ValueError, match="flatten = True with pixels_only"):

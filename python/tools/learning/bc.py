@@ -64,7 +64,9 @@ import common  # noqa: E402
 OUT = pathlib.Path("docs") / "learning" / "bc.json"
 POLICIES = pathlib.Path("docs") / "learning" / "policies"
 TASKS = ("clear_area", "grasp_lift", "retract_reach", "run_the_bowel")
-PROPRIOCEPTION = ("tool_joints",)  # the state entries a pixel policy also gets
+# the state entries a pixel policy also gets: what the robot knows of itself (its joints, last
+# commands, the tissue's wrench on each tool, the hold) and of its view (the scope's pose)
+PROPRIOCEPTION = ("tool_joints", "tool_command", "tool_forces", "grasper_holding", "camera_pose")
 IMAGE_SIZE = (84, 84)
 # the tasks cloned from pixels as well: grasp_lift, whose state clone succeeds; the others' state
 # clones reach 0-35 %, and from pixels they reached 0 % in the previous release
@@ -72,7 +74,7 @@ PIXEL_TASKS = ("grasp_lift",)
 # demonstrations per policy: pixels cost 6 ms a frame to collect; grasp_lift's episodes are short
 # (about 185 steps), and 500 of them took its clone from 55 % to 85 % on seeds 2000-2019
 DEMOS = {"state": {"clear_area": 200, "grasp_lift": 500, "retract_reach": 200, "run_the_bowel": 200},
-         "pixels": {"clear_area": 100, "grasp_lift": 100, "retract_reach": 100, "run_the_bowel": 100}}
+         "pixels": {"clear_area": 100, "grasp_lift": 300, "retract_reach": 100, "run_the_bowel": 100}}
 FRAME_KEYS = ("state", "pixels", "clock", "previous_action", "action")
 
 

@@ -162,12 +162,13 @@ def curve_figure(record: dict, path: pathlib.Path) -> None:
 # that spread puts a 2 degree roll 150 spreads from anything seen). By the entry's unit:
 MILLIMETRE, DEGREE, NEWTON, NEWTON_METRE, SHARE, GRAVITY = 1e-3, np.pi / 180.0, 0.1, 0.01, 0.05, 0.1
 # per observation key: a floor, or "joints" (each actuator's own unit: m for a depth, rad otherwise)
-# or "wrench" (6 per tool: force N, then torque N m)
+# or "wrench" (6 per tool: force N, then torque N m) or "pose" (a position, m, then a unit direction,
+# whose components move by about the angle turned, rad)
 FLOORS = {"tool_joints": "joints", "tool_command": "joints", "tool_forces": "wrench", "grasper_holding": SHARE,
           "intestine_axis": MILLIMETRE, "gravity": GRAVITY, "band": MILLIMETRE, "held_abscissa": MILLIMETRE,
           "band_abscissa": MILLIMETRE, "target": MILLIMETRE, "target_coverage": SHARE, "grasper_tip": MILLIMETRE,
           "start_mark": MILLIMETRE, "intestine_length": MILLIMETRE, "advance": MILLIMETRE,
-          "counted_abscissa": MILLIMETRE}
+          "counted_abscissa": MILLIMETRE, "camera_pose": "pose"}
 # normalised entries are clipped to this many scales from the demonstrations' mean
 INPUT_CLIP = 5.0
 
@@ -185,6 +186,8 @@ def observation_floors(names: list[str], action_names: list[str]) -> np.ndarray:
             floors[j] = MILLIMETRE if action_names[index].endswith("_depth") else DEGREE
         elif kind == "wrench":
             floors[j] = NEWTON if index % 6 < 3 else NEWTON_METRE
+        elif kind == "pose":
+            floors[j] = MILLIMETRE if index < 3 else DEGREE
         else:
             floors[j] = kind
     return floors

@@ -764,8 +764,17 @@ class BowelTask(base.Task):
         observation["gravity"] = physics.model.opt.gravity.copy()  # m/s^2: the table's tilt
         observation.update(self.task_observations(physics))
         if self.camera is not None:
+            observation["camera_pose"] = self.camera_pose(physics, self.camera.camera)
             observation.update(self.camera.render(physics))
         return observation
+
+    @staticmethod
+    def camera_pose(physics: Physics, name: str) -> np.ndarray:
+        """Where the camera `name` is and where it looks (m, world; its line of sight as a unit
+        vector): what the scope's holder knows of the view, observed with its pixels."""
+        camera = physics.named.model.cam_fovy.axes.row.names.index(name)
+        frame = physics.data.cam_xmat[camera].reshape(3, 3)
+        return np.concatenate([physics.data.cam_xpos[camera], -frame[:, 2]])
 
     def task_observations(self, physics: Physics) -> dict:
         return {}
