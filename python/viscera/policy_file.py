@@ -36,6 +36,7 @@ order listed, any of:
 - "clock": the policy's clock, the steps it has taken this episode / `clock_steps` (0 at the first);
 - "previous_action": its previous command (in the action's normalisation; zeros before the first,
   `previous_action_start` "zeros");
+- "memory": what the network gave as its memory at the step before (`memory` below);
 - "pixels": the features of `pixel_encoder` {"scale": S, "layers": [...]} over the RGB / S as
   (3, height, width): each layer {"kind": "conv2d", "weight": ARRAY (out, in, kh, kw), "bias":
   ARRAY (out,), "stride": s, "activation": "relu" or "none"} (no padding), then `pooling`:
@@ -56,6 +57,12 @@ step is the average of every chunk's prediction for that step, made at most K - 
 weighted exp(-m * age) with m = `temporal_ensemble_m`, age 0 for the chunk made at this step (ACT's
 own choice, the oldest weighted most with its k = 0.01, is m = -0.01 here). ARRAY is the name of
 an array in the file; every array must be used.
+
+`memory` (optional, with "memory" among the inputs): {"size": M, "clip": C}. The last layer gives
+M values after the actions: the policy's memory, clipped to [-C, C], which the input "memory"
+reads at the next step (zeros at the first). bc.py trains it to say what the oracle was doing
+(its phase, the tool that leads, where each tool is going), so that the policy carries its own
+plan from step to step.
 
 `residual` (optional): residual policy learning (Silver et al. 2018; Johannink et al., ICRA 2019),
 a correction network over the command above: {"inputs": any of "state" (normalised and clipped as
@@ -94,7 +101,7 @@ from viscera import atomic, provenance
 FORMAT = "viscera-policy"
 VERSION = 1
 KINDS = ("mlp",)
-INPUTS = ("pixels", "state", "clock", "previous_action")
+INPUTS = ("pixels", "state", "clock", "previous_action", "memory")
 ACTIVATIONS = ("relu", "none")
 TARGETS = ("action", "change")
 POOLINGS = ("flatten", "spatial_softmax")  # a pixel encoder's last step
@@ -288,7 +295,8 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     normalisation = r.choice(action["normalisation"], "action.normalisation", NORMALISATIONS)
 
     a = r.object(meta["architecture"], "architecture", ("kind", "inputs", "layers", "output"),
-                 ("state_normalisation", "clock_steps", "previous_action_start", "pixel_encoder", "residual"))
+                 ("state_normalisation", "clock_steps", "previous_action_start", "pixel_encoder", "residual",
+                  "memory"))
     r.choice(a["kind"], "architecture.kind", KINDS)
     inputs = a["inputs"]
     if not isinstance(inputs, list) or not inputs:
@@ -392,10 +400,21 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
     if not all(math.isfinite(w) and w > 0 for w in weights):
         r.fail(f"output.temporal_ensemble_m {m!r} gives weights that are not finite and positive")
 
-    width = sum({"pixels": features, "state": state_size, "clock": 1, "previous_action": size}[k] for k in inputs)
+    memory_size, memory_clip = 0, None
+    if "memory" in inputs:
+        if a.get("memory") is None:
+            r.fail("architecture.inputs has 'memory' but no architecture.memory")
+        e = r.object(a["memory"], "architecture.memory", ("size", "clip"))
+        memory_size = r.integer(e["size"], "memory.size")
+        memory_clip = r.number(e["clip"], "memory.clip", positive=True)
+    elif a.get("memory") is not None:
+        r.fail("architecture.memory without 'memory' in the inputs")
+    width = sum({"pixels": features, "state": state_size, "clock": 1, "previous_action": size,
+                 "memory": memory_size}[k] for k in inputs)
     dense, width = _dense_layers(r, a["layers"], "architecture.layers", width)
-    if width != chunk * size:
-        r.fail(f"the last layer gives {width} values; a chunk of {chunk} actions of {size} takes {chunk * size}")
+    if width != chunk * size + memory_size:
+        r.fail(f"the last layer gives {width} values; a chunk of {chunk} actions of {size} takes {chunk * size}"
+               + (f", and the memory {memory_size} more" if memory_size else ""))
     residual = None
     if a.get("residual") is not None:
         residual = _check_residual(r, a["residual"], inputs, state_size, size)
@@ -411,7 +430,8 @@ def _check(meta, arrays: dict[str, np.ndarray], path: str) -> dict:
             "clock_steps": clock_steps, "pixel_scale": pixel_scale, "encoder": encoder, "dense": dense,
             "target": target, "output_scale": output_scale, "absolute": mask, "held": held_mask,
             "held_values": held_values, "chunk": chunk, "m": m,
-            "ensemble_weights": weights, "residual": residual}
+            "ensemble_weights": weights, "residual": residual, "memory_size": memory_size,
+            "memory_clip": memory_clip}
 
 
 def _dense_layers(r: _Reader, layers, where: str, width: int) -> tuple[list, int]:
@@ -587,6 +607,7 @@ class LearnedPolicy:
         """Start an episode: the clock at 0, the previous command zeros, no chunk."""
         self._steps = 0
         self._previous = np.zeros(self.action_size)
+        self._memory = np.zeros(self._net["memory_size"])
         self._chunks: collections.deque = collections.deque(maxlen=self._net["chunk"])
 
     def state_of(self, observation) -> np.ndarray:
@@ -643,8 +664,15 @@ class LearnedPolicy:
         return x
 
     def network(self, state: np.ndarray | None, clock: float, previous: np.ndarray,
-                pixels: np.ndarray | None = None) -> np.ndarray:
-        """The network's raw output, (chunk, action size) float64: a pure function of its inputs."""
+                pixels: np.ndarray | None = None, memory: np.ndarray | None = None) -> np.ndarray:
+        """The network's raw actions, (chunk, action size) float64: a pure function of its inputs."""
+        return self.network_outputs(state, clock, previous, pixels, memory)[0]
+
+    def network_outputs(self, state: np.ndarray | None, clock: float, previous: np.ndarray,
+                        pixels: np.ndarray | None = None,
+                        memory: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The network's raw actions (chunk, action size) and its next memory (clipped), float64:
+        a pure function of its inputs (`memory`: the one it gave at the step before, zeros at the first)."""
         net = self._net
         parts = []
         for name in net["inputs"]:
@@ -654,6 +682,11 @@ class LearnedPolicy:
                 parts.append(np.array([clock], dtype=np.float64))
             elif name == "previous_action":
                 parts.append(np.asarray(previous, dtype=np.float64))
+            elif name == "memory":
+                given = np.zeros(net["memory_size"]) if memory is None else np.asarray(memory, dtype=np.float64)
+                if given.shape != (net["memory_size"],):
+                    raise ValueError(f"memory of shape {given.shape}, the policy keeps {net['memory_size']} values")
+                parts.append(given)
             else:
                 image = np.asarray(pixels)
                 shape = (self.pixels["height"], self.pixels["width"], 3)
@@ -666,14 +699,16 @@ class LearnedPolicy:
         x = np.concatenate(parts)
         for layer in net["dense"]:
             x = layer(x)
-        return x.reshape(net["chunk"], self.action_size)
+        actions = net["chunk"] * self.action_size
+        memory = np.clip(x[actions:], -net["memory_clip"], net["memory_clip"]) if net["memory_size"] else x[actions:]
+        return x[:actions].reshape(net["chunk"], self.action_size), memory
 
     def act(self, state: np.ndarray | None, pixels: np.ndarray | None = None) -> np.ndarray:
         """The next command in the action's normalisation (clipped to its range), from the state
         entries (state_of) and the RGB; advances the clock and remembers the command."""
         net = self._net
         clock = self.clock
-        raw = self.network(state, clock, self._previous, pixels)
+        raw, self._memory = self.network_outputs(state, clock, self._previous, pixels, self._memory)
         if net["output_scale"] is not None:
             raw = raw * net["output_scale"]
         if net["target"] == "change":

@@ -488,6 +488,40 @@ def test_a_residual_is_the_base_plus_its_scaled_correction(tmp_path):
     assert not np.allclose(episode(residual), episode(base))
 
 
+def test_a_policys_memory_is_what_it_gave_the_step_before(tmp_path):
+    """architecture.memory: the last layer's values after the actions are the next step's input
+    "memory", clipped, zeros at the first step and again after a reset (bc.py: the oracle's phase,
+    lead tool and aims, carried by the policy). By hand with matrix products, step by step."""
+    rng = np.random.default_rng(5)
+    described = copy.deepcopy(fields())
+    state = sum(size for _, size in described["observation"]["state"])
+    actions, size, hidden = described["action"]["size"], 3, 16
+    width = state + 1 + size
+    weights = {"w0": rng.normal(size=(hidden, width)) / np.sqrt(width), "b0": rng.normal(size=hidden) * 0.1,
+               "w1": rng.normal(size=(actions + size, hidden)) * 3.0 / np.sqrt(hidden),
+               "b1": rng.normal(size=actions + size) * 0.1}
+    architecture = {"kind": "mlp", "inputs": ["state", "clock", "memory"], "clock_steps": 750,
+                    "memory": {"size": size, "clip": 2.0}, "output": {"target": "action"},
+                    "layers": [{"kind": "dense", "weight": "w0", "bias": "b0", "activation": "relu"},
+                               {"kind": "dense", "weight": "w1", "bias": "b1", "activation": "none"}]}
+    policy = policy_file.save(tmp_path / "memory.npz", weights=weights, architecture=architecture, **described)
+    states = [x for x, _ in inputs(policy, 6)]
+    for _ in range(2):  # the second episode starts over from zeros
+        policy.reset()
+        memory, clipped = np.zeros(size), 0
+        for step, x in enumerate(states):
+            out = weights["w1"] @ np.maximum(weights["w0"] @ np.concatenate([x, [step / 750], memory])
+                                             + weights["b0"], 0.0) + weights["b1"]
+            np.testing.assert_allclose(policy.act(x), np.clip(out[:actions], -1.0, 1.0), rtol=0, atol=1e-12)
+            clipped += int(np.any(np.abs(out[actions:]) > 2.0))
+            memory = np.clip(out[actions:], -2.0, 2.0)
+        assert clipped > 0
+    bad = copy.deepcopy(architecture)
+    bad["inputs"] = ["state", "clock"]
+    with pytest.raises(policy_file.PolicyFileError, match="architecture.memory without 'memory' in the inputs"):
+        policy_file.save(tmp_path / "bad.npz", weights=weights, architecture=bad, **described)
+
+
 SIMD_CHILD = """
 import sys, numpy as np
 from numpy._core._multiarray_umath import __cpu_features__  # NumPy 2's

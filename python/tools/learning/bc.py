@@ -75,7 +75,9 @@ PIXEL_TASKS = ("grasp_lift",)
 # (about 185 steps), and 500 of them took its clone from 55 % to 85 % on seeds 2000-2019
 DEMOS = {"state": {"clear_area": 200, "grasp_lift": 500, "retract_reach": 200, "run_the_bowel": 200},
          "pixels": {"clear_area": 100, "grasp_lift": 300, "retract_reach": 100, "run_the_bowel": 100}}
-FRAME_KEYS = ("state", "pixels", "clock", "previous_action", "action")
+FRAME_KEYS = ("state", "pixels", "clock", "previous_action", "action", "decision")
+MEMORY_CLIP = 5.0  # a policy's memory (normalised decision features) is clipped to this
+AIM_FLOOR_M = 0.01  # an aim's coordinates are normalised by their spread, never below 1 cm
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,6 +107,12 @@ class Method:
                                        # the clone from 84 % to 64 % (44 % under the same noise)
     shift: int = 0                     # pixels: random shifts of up to this many pixels (0: none)
     previous: bool = True              # the previous command among the inputs
+    memory: bool = False               # the network also says what the oracle is doing (its phase and
+                                       # lead tool, one-hot, and each tool's aim, normalised), trained on
+                                       # the oracle's labels, and reads what it said at the step before
+    memory_weight: float = 1.0         # the memory's loss beside the actions' (L1 both)
+    memory_noise: float = 0.1          # training feeds the oracle's previous labels, moved by normal
+                                       # noise of this size, where acting feeds the network's own
 
 
 METHOD = {
@@ -140,6 +148,17 @@ def time_limit_steps(env) -> int:
 
 # -- frames: the (input, label) pairs, episode after episode
 
+def decision_features(rows: np.ndarray, phases: int, tools: int) -> np.ndarray:
+    """Oracle Decision.vector rows [phase index, lead index, aims (m) ...] as features: the phase
+    and the lead tool one-hot, then the aims as they are (float32)."""
+    rows = np.asarray(rows, dtype=np.float64).reshape(len(rows), -1)
+    out = np.zeros((len(rows), phases + tools + rows.shape[1] - 2), dtype=np.float32)
+    out[np.arange(len(rows)), rows[:, 0].astype(int)] = 1.0
+    out[np.arange(len(rows)), phases + rows[:, 1].astype(int)] = 1.0
+    out[:, phases + tools:] = rows[:, 2:]
+    return out
+
+
 def frames_of(episodes: list[dict], names: list[str], action_names: list[str], limit_steps: int) -> dict:
     """The frames of `episodes` (each: state, pixels or None, previous_action, action: the labels)
     concatenated, with `end`: each frame's episode's last frame, where its chunks stop."""
@@ -152,6 +171,7 @@ def frames_of(episodes: list[dict], names: list[str], action_names: list[str], l
         frames[key] = frames[key].astype(np.float32)
     lengths = [len(e["action"]) for e in episodes]
     frames["end"] = np.repeat(np.cumsum(lengths) - 1, lengths)
+    frames["first"] = np.repeat(np.cumsum(lengths) - lengths, lengths)  # each frame's episode's first frame
     frames.update(names=names, action_names=action_names, time_limit_steps=limit_steps, episodes=len(episodes))
     return frames
 
@@ -163,8 +183,22 @@ def aggregate(frames: dict, more: dict) -> dict:
         if frames[key] is not None:
             joined[key] = np.concatenate([frames[key], more[key]])
     joined["end"] = np.concatenate([frames["end"], more["end"] + len(frames["action"])])
+    joined["first"] = np.concatenate([frames["first"], more["first"] + len(frames["action"])])
     joined["episodes"] = frames["episodes"] + more["episodes"]
     return joined
+
+
+def oracle_features(oracle, task: str, steps: int) -> np.ndarray | None:
+    """A Minari episode's infos["oracle"] (a row per observation, the reset's first) as the
+    decision_features of its `steps` actions; None without them."""
+    if not oracle:
+        return None
+    import viscera.tasks
+
+    aims = np.asarray(oracle["aims"])[1:steps + 1]
+    rows = np.concatenate([np.asarray(oracle["phase"])[1:steps + 1, None], np.asarray(oracle["lead"])[1:steps + 1, None],
+                           aims.reshape(steps, -1)], axis=1)
+    return decision_features(rows, len(viscera.tasks.oracle_phases(task)), aims.shape[1])
 
 
 def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int | None = None) -> dict:
@@ -196,7 +230,8 @@ def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int 
             "action": np.asarray(labels, dtype=np.float32),  # what the script commanded
             # the policy's own previous command (the action taken, noise and all): zeros before the first
             "previous_action": np.concatenate([np.zeros_like(episode.actions[:1]), episode.actions[:-1]]).astype(
-                np.float32)})
+                np.float32),
+            "decision": oracle_features(episode.infos.get("oracle"), task, steps)})
     if not episodes:
         raise SystemExit(f"{root}: no successful demonstration to clone")
     frames = frames_of(episodes, names, action_names, limit_steps)
@@ -210,7 +245,7 @@ class Network(nn.Module):
     """An MLP over [pixel features,] state, clock and previous command, giving `chunk` x action size
     values; the pixel encoder is a stack of unpadded ReLU convolutions, flattened."""
 
-    def __init__(self, state_size: int, action_size: int, method: Method, pixels: bool):
+    def __init__(self, state_size: int, action_size: int, method: Method, pixels: bool, memory_size: int = 0):
         super().__init__()
         features = 0
         self.conv = None
@@ -226,11 +261,11 @@ class Network(nn.Module):
             self.conv = nn.Sequential(*layers, pooling)
             with torch.no_grad():
                 features = self.conv(torch.zeros(1, 3, *IMAGE_SIZE)).shape[1]
-        layers, width = [], features + state_size + 1 + (action_size if method.previous else 0)
+        layers, width = [], features + state_size + 1 + (action_size if method.previous else 0) + memory_size
         for size in method.hidden:
             layers += [nn.Linear(width, size), nn.ReLU()]
             width = size
-        self.mlp = nn.Sequential(*layers, nn.Linear(width, method.chunk * action_size))
+        self.mlp = nn.Sequential(*layers, nn.Linear(width, method.chunk * action_size + memory_size))
 
     def forward(self, state, memory, image=None):
         parts = [state, memory] if self.conv is None else [self.conv(image), state, memory]
@@ -293,7 +328,16 @@ class Learner:
         # (at least 1 % of the normalised range: an actuator the demonstrations never moved, whose
         # labels elsewhere, DAgger's, may differ a little, must not blow its loss up)
         self.change_scale = np.maximum(target.reshape(-1, target.shape[-1]).std(axis=0), 1e-2).astype(np.float32)
-        self.model = Network(len(self.inputs), len(self.action_names), method, kind == "pixels")
+        self.memory_size = 0
+        if method.memory:  # the decision features normalised: one-hots as they are, aims by their spread
+            if frames.get("decision") is None:
+                raise SystemExit("memory: the demonstrations hold no oracle labels (collected by an older viscera?)")
+            decision = frames["decision"].astype(np.float64)
+            one_hot = np.all((decision == 0.0) | (decision == 1.0), axis=0)
+            self.decision_mean = np.where(one_hot, 0.0, decision.mean(axis=0)).astype(np.float32)
+            self.decision_scale = np.where(one_hot, 1.0, np.maximum(decision.std(axis=0), AIM_FLOOR_M)).astype(np.float32)
+            self.memory_size = decision.shape[1]
+        self.model = Network(len(self.inputs), len(self.action_names), method, kind == "pixels", self.memory_size)
         self.optimiser = torch.optim.Adam(self.model.parameters(), lr=method.learning_rate)
         self.losses: list[float] = []
 
@@ -321,6 +365,11 @@ class Learner:
                                  dtype=torch.float32)
         images = torch.as_tensor(frames["pixels"]) if self.kind == "pixels" else None  # uint8, scaled per batch
         scale = torch.as_tensor(self.change_scale)
+        decision = first = None
+        if self.memory_size:  # the target: this step's decision; the input: the step before's (zeros at the first)
+            decision = torch.as_tensor(self.normalised_decision(frames["decision"]), dtype=torch.float32)
+            first = torch.as_tensor(frames["first"])
+        actions = method.chunk * len(self.action_names)
         for update in range(updates):
             for group in self.optimiser.param_groups:
                 group["lr"] = method.final_learning_rate + 0.5 * (method.learning_rate - method.final_learning_rate) * (
@@ -332,17 +381,29 @@ class Learner:
             target = self._targets(frames, index) / scale
             target[:, :, self.held] = 0.0  # a held actuator's command is the file's, not learned
             target = target.reshape(method.batch, -1)
-            error = self.model(state[index], memory[index], image) - target
+            given = memory[index]
+            if decision is not None:
+                before = torch.where((index > first[index])[:, None], decision[torch.clamp(index - 1, min=0)], 0.0)
+                before = before + method.memory_noise * torch.randn(before.shape, generator=self.generator)
+                given = torch.cat([given, before], dim=1)
+            out = self.model(state[index], given, image)
+            error = out[:, :actions] - target
             error = error.reshape(method.batch, method.chunk, -1)
             error[:, :, self.held] = 0.0
             error = error.reshape(method.batch, -1)
             loss = error.abs().mean() if method.loss == "l1" else (error ** 2).mean()
+            if decision is not None:
+                loss = loss + method.memory_weight * (out[:, actions:] - decision[index]).abs().mean()
             self.optimiser.zero_grad()
             loss.backward()
             self.optimiser.step()
             self.losses.append(float(loss.detach()))
         self.model.eval()
         return time.perf_counter() - wall, time.process_time() - cpu
+
+    def normalised_decision(self, features: np.ndarray) -> np.ndarray:
+        """Decision features (decision_features) as the memory holds them, clipped to MEMORY_CLIP."""
+        return np.clip((features - self.decision_mean) / self.decision_scale, -MEMORY_CLIP, MEMORY_CLIP)
 
     def policy(self, ensemble_m: float | None = None) -> "Cloned":
         return Cloned(self, self.method.ensemble_m if ensemble_m is None else ensemble_m)
@@ -359,6 +420,9 @@ class Learner:
                         "clock_steps": self.time_limit_steps}
         if self.method.previous:
             architecture["previous_action_start"] = "zeros"
+        if self.memory_size:
+            inputs.append("memory")
+            architecture["memory"] = {"size": self.memory_size, "clip": MEMORY_CLIP}
         if self.model.conv is not None:
             architecture["inputs"] = ["pixels"] + inputs
             layers = []
@@ -447,6 +511,7 @@ class Cloned:
     def reset(self) -> None:
         self.step = 0
         self.previous = np.zeros(len(self.learner.action_names))
+        self.memory = np.zeros(self.learner.memory_size)  # what the network said at the step before
         self.chunks: list[tuple[int, np.ndarray]] = []
 
     def predict(self, observation) -> np.ndarray:
@@ -456,7 +521,7 @@ class Cloned:
         state = np.clip((np.asarray(state, dtype=np.float64)[learner.inputs] - self.mean) / self.scale,
                         -common.INPUT_CLIP, common.INPUT_CLIP)
         memory = np.concatenate([[self.step / learner.time_limit_steps]] +
-                                ([self.previous] if learner.method.previous else []))
+                                ([self.previous] if learner.method.previous else []) + [self.memory])
         image = None
         if learner.kind == "pixels":
             image = torch.as_tensor(np.ascontiguousarray(observation["pixels"]),
@@ -464,7 +529,10 @@ class Cloned:
         with torch.no_grad():
             raw = learner.model(torch.as_tensor(state, dtype=torch.float32)[None],
                                 torch.as_tensor(memory, dtype=torch.float32)[None], image)
-        raw = raw[0].numpy().astype(np.float64).reshape(learner.method.chunk, -1) * self.change_scale
+        raw = raw[0].numpy().astype(np.float64)
+        actions = learner.method.chunk * len(learner.action_names)
+        self.memory = np.clip(raw[actions:], -MEMORY_CLIP, MEMORY_CLIP)
+        raw = raw[:actions].reshape(learner.method.chunk, -1) * self.change_scale
         if learner.method.target == "change":
             raw = np.where(learner.jaws, raw, self.previous + raw)
         raw[:, learner.held] = learner.held_values
@@ -513,10 +581,11 @@ def _dagger_episodes(policy: Cloned, task: str, kind: str, seeds: list[int], bet
             observation, info = env.reset(seed=int(seed))
             expert = viscera.tasks.scripted_policy(env.dm_env)  # the oracle decides from each state alone
             policy.reset()
-            states, images, previous, labels = [], [], [], []
+            states, images, previous, labels, decisions = [], [], [], [], []
             done, steps, scripted = False, 0, False
             while not done:
                 label = np.clip(env.gym_action(expert(env.time_step)), -1.0, 1.0)
+                decisions.append(expert.last.vector(expert.PHASES, expert.names))
                 if steps % segment == 0:
                     scripted = rng.random() < beta
                 before = policy.previous.copy()
@@ -538,7 +607,8 @@ def _dagger_episodes(policy: Cloned, task: str, kind: str, seeds: list[int], bet
                              "state": np.asarray(states, dtype=np.float32),
                              "pixels": np.asarray(images) if kind == "pixels" else None,
                              "clock": np.arange(steps) / limit_steps, "previous_action": np.asarray(previous),
-                             "action": np.asarray(labels)})
+                             "action": np.asarray(labels),
+                             "decision": decision_features(np.asarray(decisions), len(expert.PHASES), len(expert.names))})
     finally:
         env.close()
     return episodes
@@ -846,6 +916,9 @@ def main(argv=None) -> int:
     parser.add_argument("--dagger-updates", type=int, help="Adam steps after each DAgger round")
     parser.add_argument("--hidden", type=int, nargs="+", help="the MLP's hidden layer sizes")
     parser.add_argument("--loss", choices=("l1", "mse"), help="the training loss (default: l1, ACT's)")
+    parser.add_argument("--memory", action="store_true",
+                        help="the network also says what the oracle is doing (phase, lead tool, aims) and reads "
+                             "what it said at the step before (Method.memory)")
     parser.add_argument("--workers", type=int, default=1, help="processes collecting, rolling out and evaluating")
     parser.add_argument("--policies", type=pathlib.Path, default=POLICIES,
                         help=f"where the policy files go, TASK_KIND.npz (default {POLICIES})")
@@ -871,7 +944,7 @@ def main(argv=None) -> int:
         ("chunk", args.chunk), ("ensemble_m", args.ensemble_m), ("updates", args.updates),
         ("dagger_rounds", args.dagger_rounds), ("dagger_episodes", args.dagger_episodes),
         ("dagger_updates", args.dagger_updates), ("hidden", tuple(args.hidden) if args.hidden else None),
-        ("loss", args.loss)) if value is not None}
+        ("loss", args.loss), ("memory", True if args.memory else None)) if value is not None}
     curve_seeds = None if args.no_curve else list(args.curve_seeds or args.eval_seeds)
 
     record = json.loads(args.out.read_text()) if args.out.exists() else {"results": {}}
