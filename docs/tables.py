@@ -590,7 +590,8 @@ def rl_curve() -> str:
     final = record.get("final")
     if final is not None:
         first, last = record["final_seeds"]
-        rows.append([f"**{record['train_env_steps']:,} (end)**", f"**{record['train_core_hours']:.2f}**",
+        steps = record["train_env_steps"] + record["start"].get("demonstration_env_steps", 0)  # as the curve counts
+        rows.append([f"**{steps:,} (end)**", f"**{record['train_core_hours']:.2f}**",
                      f"**{_percent(final['success_rate'])}** on {first}-{last}", f"{final['mean_return']:.2f}"])
     for name, reference in record.get("references_on_eval_seeds", {}).items():
         label = "the scripted policy" if name == "scripted" else "uniform random actions"

@@ -73,7 +73,7 @@ IMAGE_SIZE = (84, 84)
 PIXEL_TASKS = ("grasp_lift",)
 # demonstrations per policy: pixels cost 6 ms a frame to collect; grasp_lift's episodes are short
 # (about 185 steps), and 500 of them took its clone from 55 % to 85 % on seeds 2000-2019
-DEMOS = {"state": {"clear_area": 200, "grasp_lift": 500, "retract_reach": 200, "run_the_bowel": 200},
+DEMOS = {"state": {"clear_area": 200, "grasp_lift": 1500, "retract_reach": 200, "run_the_bowel": 200},
          "pixels": {"clear_area": 100, "grasp_lift": 300, "retract_reach": 100, "run_the_bowel": 100}}
 FRAME_KEYS = ("state", "pixels", "clock", "previous_action", "action", "decision")
 MEMORY_CLIP = 5.0  # a policy's memory (normalised decision features) is clipped to this
