@@ -45,9 +45,10 @@ order listed, any of:
   over its positions, then the expected column and row coordinates, each -1 to 1 from the first
   position's centre to the last's, as (channel, [column, row]): 2 x channels features).
 `layers`: [{"kind": "dense", "weight": ARRAY (out, in), "bias": ARRAY (out,), "activation"}, ...];
-the last gives `output.chunk` x action size values. `output`: `target` "action" (the network
-gives the command) or "change" (the change from the previous command, except at the action
-indices `absolute`, where it gives the command, as a grasper's jaw jumps), multiplied first by
+the last gives `output.chunk` x action size values (then the `memory`'s M, if any). `output`:
+`target` "action" (the network gives the command) or "change" (the change from the previous
+command, except at the action indices `absolute`, where it gives the command, as a grasper's jaw
+jumps), multiplied first by
 `scale` (ARRAY (action size,), optional); `held` (optional) {"indices": [...], "values": [...]}:
 actions the policy holds at a fixed command (in the action's normalisation) whatever the network
 gives, such as an actuator no demonstration moved; `chunk` K >= 1 future commands (row-major: K rows of

@@ -49,8 +49,9 @@ def test_the_committed_policy_is_the_file_the_record_describes(task, kind, entry
     assert (first, last) == tuple(RECORD["eval_seeds"]) and entry["episodes"] == last - first + 1
     assert entry["success_rate"] == pytest.approx(len(entry["succeeded_seeds"]) / entry["episodes"])
     if kind == "rl":  # a residual on a cloned policy (held in the file), its demonstrations before these seeds
+        assert policy.sha256 == RL["policy_sha256"] and path.stat().st_size == RL["policy_bytes"]
         assert policy.meta["architecture"]["residual"]["scale"] == RL["start"]["residual_scale"]
-        assert policy.meta["training"]["base_sha256"] == RL["start"]["base_sha256"]
+        assert RL["base_demonstration_seeds"][1] < first
         return
     assert path.stat().st_size == entry["policy_bytes"]
     assert entry["demonstration_seeds"][1] < first  # no demonstration on an evaluation seed

@@ -234,6 +234,12 @@ def load_demonstrations(root: pathlib.Path, task: str, pixels: bool, limit: int 
             "decision": oracle_features(episode.infos.get("oracle"), task, steps)})
     if not episodes:
         raise SystemExit(f"{root}: no successful demonstration to clone")
+    if episodes[0]["state"].shape[1] != len(names):  # a dataset of another observation layout
+        raise SystemExit(f"{root}: its states hold {episodes[0]['state'].shape[1]} values, {task}'s observation "
+                         f"{len(names)} ({', '.join(sorted({n.split('[')[0] for n in names}))}): collected by another "
+                         "viscera; move it away to collect again")
+    if len({e["decision"] is None for e in episodes}) > 1:
+        raise SystemExit(f"{root}: some episodes hold the oracle's labels and some do not")
     frames = frames_of(episodes, names, action_names, limit_steps)
     frames.update(seeds=seeds, total_episodes=dataset.total_episodes, collected_steps=int(dataset.total_steps))
     return frames
@@ -383,8 +389,10 @@ class Learner:
             target = target.reshape(method.batch, -1)
             given = memory[index]
             if decision is not None:
-                before = torch.where((index > first[index])[:, None], decision[torch.clamp(index - 1, min=0)], 0.0)
-                before = before + method.memory_noise * torch.randn(before.shape, generator=self.generator)
+                later = (index > first[index])[:, None]  # an episode's first frame reads zeros, as acting does
+                before = torch.where(later, decision[torch.clamp(index - 1, min=0)]
+                                     + method.memory_noise * torch.randn(later.shape[0], decision.shape[1],
+                                                                         generator=self.generator), 0.0)
                 given = torch.cat([given, before], dim=1)
             out = self.model(state[index], given, image)
             error = out[:, :actions] - target

@@ -73,8 +73,8 @@ def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1, 
       executed command as its previous one.
     - With `gamma`: the task's dense reward, Phi(s') - Phi(s) - c (+ the bonus on success), made
       the potential-based form for a learner discounting by gamma (Ng, Harada and Russell 1999):
-      gamma Phi(s') - Phi(s) - c, by adding (gamma - 1) Phi(s') on every step that does not end the
-      episode (the last step's Phi(s') is the episode's, paid whole)."""
+      gamma Phi(s') - Phi(s) - c, by adding (gamma - 1) Phi(s') on every step the task does not end
+      (success or failure pays its last Phi(s') whole; PPO bootstraps a time limit's last step)."""
     import gymnasium
 
     from viscera import policy_file
@@ -121,7 +121,7 @@ def with_memory(env, base_path: pathlib.Path | None = None, scale: float = 0.1, 
                 self.base.executed(action)
             else:
                 self.memory = action
-            if gamma is not None and not (terminated or truncated):
+            if gamma is not None and not terminated:  # a time limit's last step is bootstrapped: shaped too
                 reward += (gamma - 1.0) * self.env.dm_env.task.last_potential
             return self._observed(observation), reward, terminated, truncated, info
 
@@ -230,6 +230,24 @@ def references(seeds: list[int]) -> dict:
     return found
 
 
+def check_export(trained, model, make_env, scale: float, steps: int = 30) -> None:
+    """That the written policy file commands what the trained model does through its wrapper, on
+    the first steps of an episode (float64 NumPy against torch's float32)."""
+    env = make_env()
+    observation, _ = env.reset(seed=0)
+    trained.reset()
+    worst = 0.0
+    for _ in range(steps):
+        action = model.predict(observation, deterministic=True)[0]
+        wrapper = env.base.corrected(env.memory, np.clip(action, -1.0, 1.0), scale)
+        mine = trained.act(trained.state_of(env.env.time_step.observation))
+        worst = max(worst, float(np.max(np.abs(mine - wrapper))))
+        observation, *_ = env.step(action)
+    env.close()
+    if worst > 1e-3:
+        raise RuntimeError(f"{trained.path}: the file's commands differ from the trained model's by {worst:.2g}")
+
+
 def earlier_attempts(path: pathlib.Path) -> list[dict]:
     """The runs a record at `path` holds (its attempts, then its own run), kept in the new record's
     `attempts` (drawn thin and dashed in the figure)."""
@@ -299,6 +317,12 @@ def main(argv=None) -> int:
             base.check_task(TASK)
         except policy_file.PolicyFileError as error:
             parser.error(f"--base {error}")  # the error names the file
+        architecture = base.meta["architecture"]
+        if architecture.get("residual") is not None:
+            parser.error(f"--base {args.base}: a residual policy already; give the policy it corrects")
+        if not {"state", "clock"} <= set(architecture["inputs"]):
+            parser.error(f"--base {args.base}: reads {architecture['inputs']}; a residual's base reads the state and "
+                         "the clock, which its correction reads too")
         seeds = base.meta["training"].get("demonstration_seeds", [0, 0])
         if seeds[1] >= first_unseen:
             parser.error(f"--base {args.base}: its demonstrations' seeds {seeds} reach the evaluation's")
@@ -443,7 +467,10 @@ def main(argv=None) -> int:
             "base_sha256": base.sha256, "residual_scale": args.residual_scale, "ppo_env_steps": int(model.num_timesteps),
             "core_hours": record["train_core_hours"], "train_seeds": record["train_seeds"],
             "versions": record["versions"]})
+        check_export(trained, model, unshaped, args.residual_scale)
         record["policy_file"] = str(args.policy_out)
+        record.update(policy_sha256=trained.sha256, policy_bytes=args.policy_out.stat().st_size,
+                      base_demonstration_seeds=base.meta["training"].get("demonstration_seeds"))
         evaluation_clock = common.Clock()
         final = bc.evaluate(pathlib.Path(trained.path), args.final_seeds)
         final["eval_cpu_s"] = evaluation_clock.lap()["cpu_s"]
