@@ -215,6 +215,23 @@ def handover_rates() -> str:
                  + [f"handed over at {float(f):.0%}" for f in HANDOVER_FRACTIONS], rows)
 
 
+def noisy_rates() -> str:
+    """The scripted oracles under action noise throughout, from docs/tasks/rates_noisy.json (python
+    python/tools/task_rates.py --noisy): reading back the executed command, and their intended one."""
+    data = _json("tasks/rates_noisy.json")
+    rows = []
+    for task, table in data["rates"].items():
+        scripted = table["scripted"]
+        readings = scripted["noisy"]["readings"]
+        rows.append([f"`{task}`", f"{scripted['success_rate']:.0%} of {scripted['episodes']}{_interval(scripted)}"]
+                    + [f"{readings[r]['success_rate']:.0%}{_interval(readings[r])}" for r in ("executed", "intended")])
+    first, last = data["seeds"]["scripted"]
+    share = next(iter(data["rates"].values()))["scripted"]["noisy"]["noise_of_range"]
+    return _rows(["task", f"without noise (seeds {first} to {last}; 95 % interval)",
+                  f"{share:.0%} noise, reading the executed command", f"{share:.0%} noise, reading the intended command"],
+                 rows)
+
+
 def anatomical_rates() -> str:
     """The scripted policies on the anatomical abdomen, from docs/tasks/rates_anatomical.json (python
     python/tools/task_rates.py --scene anatomical --policies scripted --out docs/tasks/rates_anatomical.json)."""
