@@ -223,11 +223,12 @@ def noisy_rates() -> str:
     for task, table in data["rates"].items():
         scripted = table["scripted"]
         readings = scripted["noisy"]["readings"]
-        rows.append([f"`{task}`", f"{scripted['success_rate']:.0%} of {scripted['episodes']}{_interval(scripted)}"]
+        first, last = scripted["seeds"]
+        rows.append([f"`{task}`", f"{scripted['success_rate']:.0%} of {scripted['episodes']}, seeds {first} to {last}"
+                     f"{_interval(scripted)}"]
                     + [f"{readings[r]['success_rate']:.0%}{_interval(readings[r])}" for r in ("executed", "intended")])
-    first, last = data["seeds"]["scripted"]
     share = next(iter(data["rates"].values()))["scripted"]["noisy"]["noise_of_range"]
-    return _rows(["task", f"without noise (seeds {first} to {last}; 95 % interval)",
+    return _rows(["task", "without noise (95 % interval)",
                   f"{share:.0%} noise, reading the executed command", f"{share:.0%} noise, reading the intended command"],
                  rows)
 
@@ -589,7 +590,8 @@ def bc_variants() -> str:
         v = rounds[0]
         first, last = v["eval_seeds"]
         decay = "" if v["final_learning_rate"] == 1e-3 else f", rate to {v['final_learning_rate']:g}"
-        inputs = "state, clock" + (", previous command" if v["previous_command"] else "")
+        seen = "pixels, proprioception" if v["observations"] == "pixels" else "state"
+        inputs = f"{seen}, clock" + (", previous command" if v["previous_command"] else "")
         if v.get("extra_inputs"):
             inputs += f"; {v['extra_inputs']}"
         successes = " → ".join(_percent(r["success_rate"]) for r in sorted(rounds, key=lambda r: r["dagger_rounds"]))
