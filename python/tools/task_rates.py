@@ -37,6 +37,8 @@ to send, into docs/tasks/rates_noisy.json:
 
     python python/tools/task_rates.py --seeds 100 --tasks grasp_lift --policies scripted --noisy \
         --out docs/tasks/rates_noisy.json
+    python python/tools/task_rates.py --seeds 20 --tasks clear_area retract_reach run_the_bowel \
+        --policies scripted --noisy --merge docs/tasks/rates_noisy.json --out docs/tasks/rates_noisy.json
 
 The seeds start at 1000 by default: the policies were tuned on seeds below 200, and the oracles
 also on the box abdomen's seeds 1000 to 1049, so seeds 1050 on are seeds they never saw (each
