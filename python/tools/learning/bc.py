@@ -394,11 +394,10 @@ class Learner:
             target = self._targets(frames, index) / scale
             target[:, :, self.held] = 0.0  # a held actuator's command is the file's, not learned
             target = target.reshape(method.batch, -1)
-            given = memory[index]
+            given = memory[index]  # the clock, then the previous command
             if method.previous and method.previous_noise:
-                moved = method.previous_noise * torch.randn(len(index), len(self.action_names), generator=self.generator)
-                given = torch.cat([given[:, :1], given[:, 1:1 + len(self.action_names)] + moved,
-                                   given[:, 1 + len(self.action_names):]], dim=1)
+                given[:, 1:] += method.previous_noise * torch.randn(len(index), given.shape[1] - 1,
+                                                                    generator=self.generator)
             if decision is not None:
                 later = (index > first[index])[:, None]  # an episode's first frame reads zeros, as acting does
                 before = torch.where(later, decision[torch.clamp(index - 1, min=0)]
@@ -940,10 +939,10 @@ def main(argv=None) -> int:
     parser.add_argument("--dagger-rounds", type=int, help="DAgger rounds (default: the method's)")
     parser.add_argument("--dagger-episodes", type=int, help="learner episodes per DAgger round")
     parser.add_argument("--dagger-updates", type=int, help="Adam steps after each DAgger round")
-    parser.add_argument("--dagger-noise", type=float,
+    parser.add_argument("--dagger-noise", type=common.fraction,
                         help="DAgger's executed commands moved by normal noise of this share of each actuator's "
                              "range, the oracle labelling the states it leads to (DART; default: the method's, 0)")
-    parser.add_argument("--previous-noise", type=float,
+    parser.add_argument("--previous-noise", type=common.fraction,
                         help="training moves the previous-command input by normal noise of this size, in "
                              "normalised action units (default: the method's, 0)")
     parser.add_argument("--hidden", type=int, nargs="+", help="the MLP's hidden layer sizes")

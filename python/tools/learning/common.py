@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from viscera import assess
-from viscera.cli import seed_range  # noqa: F401  (argparse type of the tools' seed options)
+from viscera.cli import fraction, seed_range  # noqa: F401  (argparse types of the tools' options)
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))  # python/tools
 from task_rates import wilson_interval  # noqa: E402  (the 95 % interval the oracles' rates give too)
